@@ -1,0 +1,24 @@
+// Implicit surface of S_D: a signed distance grid over a box (see DistanceGrid in textures.h).
+#pragma once
+#include <functional>
+
+#include "library/box.h"
+#include "library/mesh.h"
+#include "library/scene.h"
+#include "library/textures.h"
+
+namespace raywarp {
+
+// Progress in [0, 1] with a stage name; return false to cancel (the bake then throws Error).
+using Progress = std::function<bool(const char* stage, double fraction)>;
+
+// Builds the distance grid of `mesh` over `box` (its local frame) plus spec.margin_voxels, with
+// spec.resolution voxels along the box's longest side. Distances come from OpenVDB's narrow-band
+// mesh-to-volume (unsigned, on the triangles near the box); the sign (inside) from the
+// generalised winding number of the whole mesh, so open meshes (holes, several shells) get a
+// sensible inside. Throws Error when the grid would exceed `memory_budget_bytes`.
+DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
+                                size_t memory_budget_bytes = size_t(2) << 30,
+                                const Progress& progress = {});
+
+}  // namespace raywarp

@@ -1,0 +1,32 @@
+// Triangle meshes: loading through assimp and the figures raywarp reports about them.
+#pragma once
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+
+namespace raywarp {
+
+struct Mesh {
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> V;  // vertices, object units
+  Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor> F;     // triangles, counter-clockwise seen from outside
+  Eigen::Vector3d vertex(int f, int c) const { return V.row(F(f, c)).transpose(); }
+};
+
+struct MeshStats {
+  long vertices = 0, faces = 0;
+  Eigen::AlignedBox3d bounds;
+  long boundary_edges = 0;     // edges used by one triangle
+  long nonmanifold_edges = 0;  // edges used by three or more triangles
+  long degenerate_faces = 0;   // zero-area triangles
+  bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
+};
+
+// Loads OBJ, PLY, STL, OFF, glTF and whatever else assimp reads; all meshes of the file are
+// merged into one, identical vertices joined, polygons triangulated. Throws Error naming the file.
+Mesh load_mesh(const std::string& path);
+MeshStats mesh_stats(const Mesh& mesh);
+std::string describe(const MeshStats& stats);  // one line for the terminal
+// Per-vertex normals, area-weighted face normals (unit; zero for isolated vertices).
+Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> vertex_normals(const Mesh& mesh);
+
+}  // namespace raywarp

@@ -1,0 +1,51 @@
+// Independent references for raywarp's GL renders.
+//
+// 1. reference_render: the same ray cast as shaders/raycast.frag.glsl, on the CPU in double,
+//    reading the same textures through Grid3::sample (GL_LINEAR semantics), composited with a
+//    CPU rasterisation of the mesh outside the boxes. It checks the shader against its
+//    specification.
+// 2. ground_truth_mesh + rasterize: no textures and no box logic at render time: the mesh finely
+//    subdivided, split at the box faces, the inside part mapped by the exact forward map, then
+//    rasterised with a z-buffer. It checks the whole method against the exact deformed surface.
+#pragma once
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "library/camera.h"
+#include "library/image.h"
+#include "library/mesh.h"
+#include "library/scene.h"
+#include "library/textures.h"
+
+namespace raywarp {
+
+// A ray-cast hit in the box's local frame.
+struct RayHit {
+  double t = 0.0;                 // along the local ray (unit direction: same as object units)
+  Eigen::Vector3d point;          // deformed position p'
+  Eigen::Vector3d normal;         // outward unit normal of the deformed surface (eq. 5)
+};
+
+// The ray cast of one box along a local-frame ray over [t0, t1], exactly as the shader does it.
+std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d& origin,
+                                   const Eigen::Vector3d& direction, double t0, double t1,
+                                   const RenderSettings& settings);
+
+Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
+                       const Camera& camera, int width, int height,
+                       const RenderSettings& settings);
+
+// The mesh with every triangle that meets `box` split at the box faces and subdivided so that
+// its edges are shorter than `max_edge`; the pieces inside the box are mapped by
+// `forward_local` (the deformer's F in the box's local frame). Pieces outside are unchanged.
+Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
+                       const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
+                       double max_edge);
+
+// CPU z-buffer rasterisation of all triangles, shaded like the GL renderer (flat colour from
+// the face normal), depth per DESIGN's convention. Pixel centres sampled, row 0 at the top.
+Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
+                const RenderSettings& settings);
+
+}  // namespace raywarp

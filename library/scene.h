@@ -1,0 +1,56 @@
+// The scene file (docs/scene.md documents every field). Loading validates everything; an error
+// names the file, the field, the value and what is allowed, and throws Error.
+#pragma once
+#include <Eigen/Core>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "library/box.h"
+#include "library/camera.h"
+
+namespace raywarp {
+
+struct DeformerSpec {
+  std::string type;      // "twist" | "bend"
+  int axis = 1;          // 0 = x, 1 = y, 2 = z
+  double angle_deg = 0;  // twist: any; bend: (-360, 360)
+};
+
+struct ImplicitSpec {
+  std::string type = "sdf";   // "sdf"
+  int resolution = 128;       // voxels along the box's longest side, [8, 1024]
+  double band_voxels = 3.0;   // narrow-band half width, [1, 32]
+  double margin_voxels = 2.0; // grid margin around the box, [0, 64]
+};
+
+struct BoxSpec {
+  Box box;
+  DeformerSpec deformer;
+  ImplicitSpec implicit;
+  int deformation_resolution = 96;  // texels of D along the longest side of F(box), [4, 1024]
+};
+
+struct RenderSettings {
+  int width = 512, height = 512;     // [1, 8192]
+  double step_voxels = 0.5;          // linear-search step in voxels of the distance grid, (0, 8]
+  int max_steps = 1024;              // bound on the linear search, [1, 100000]
+  int refine_steps = 8;              // binary refinement steps, [0, 64]
+  Eigen::Vector3d background{1, 1, 1};  // linear RGB in [0, 1]
+  Eigen::Vector3d colour{0.8, 0.62, 0.45};  // surface albedo, linear RGB in [0, 1]
+};
+
+struct Scene {
+  std::filesystem::path file;  // the scene file itself
+  std::filesystem::path mesh;  // resolved against the scene file's folder
+  std::vector<BoxSpec> boxes;
+  std::optional<Camera> camera;
+  RenderSettings render;
+};
+
+Scene load_scene(const std::filesystem::path& path);
+// The image size by precedence: command line (when > 0), else the camera's, else `render`.
+Eigen::Vector2i image_size(const Scene& scene, const Camera& camera, int cli_width, int cli_height);
+
+}  // namespace raywarp
