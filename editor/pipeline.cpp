@@ -1,0 +1,134 @@
+#include "editor/pipeline.h"
+
+#include <chrono>
+#include <cstdio>
+#include <ostream>
+
+#include "deformers/bend.h"
+#include "deformers/twist.h"
+#include "library/error.h"
+#include "library/implicit.h"
+
+namespace raywarp {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string fmt(const char* format, double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, x);
+  return buf;
+}
+
+std::string dims_string(const Eigen::Vector3i& d) {
+  return std::to_string(d.x()) + "x" + std::to_string(d.y()) + "x" + std::to_string(d.z());
+}
+
+}  // namespace
+
+std::vector<BoxTextures> PreparedScene::textures() const {
+  std::vector<BoxTextures> out;
+  for (const auto& b : boxes) out.push_back(b.textures);
+  return out;
+}
+
+std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_index) {
+  const BoxSpec& spec = scene.boxes.at(box_index);
+  const std::string field = scene.file.string() + ": boxes[" + std::to_string(box_index) + "].deformer";
+  Axis axis = static_cast<Axis>(spec.deformer.axis);
+  try {
+    if (spec.deformer.type == "twist")
+      return make_twist(spec.box.half_extents, axis, spec.deformer.angle_deg);
+    if (spec.deformer.type == "bend")
+      return make_bend(spec.box.half_extents, axis, spec.deformer.angle_deg);
+  } catch (const Error& e) {
+    throw Error(field + "." + e.what());
+  }
+  throw Error(field + ".type = \"" + spec.deformer.type + "\": must be one of twist, bend");
+}
+
+std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
+  static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+  auto identity = deformer.identity_faces();
+  std::vector<Eigen::Vector3d> local(mesh.V.rows());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) local[i] = box.to_local(mesh.V.row(i).transpose());
+  bool crossed[6] = {false, false, false, false, false, false};
+  const Eigen::Vector3d& h = box.half_extents;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    for (int e = 0; e < 3; ++e) {
+      const Eigen::Vector3d& a = local[mesh.F(f, e)];
+      const Eigen::Vector3d& b = local[mesh.F(f, (e + 1) % 3)];
+      for (int face = 0; face < 6; ++face) {
+        if (identity[face] || crossed[face]) continue;
+        int axis = face / 2;
+        double plane = (face % 2) ? h[axis] : -h[axis];
+        double da = a[axis] - plane, db = b[axis] - plane;
+        if ((da > 0) == (db > 0) || da == db) continue;
+        Eigen::Vector3d x = a + (b - a) * (da / (da - db));
+        bool inside = true;
+        for (int k = 0; k < 3; ++k)
+          if (k != axis && std::abs(x[k]) > h[k]) inside = false;
+        crossed[face] = inside;
+      }
+    }
+  }
+  std::vector<std::string> out;
+  for (int face = 0; face < 6; ++face)
+    if (crossed[face]) out.push_back(names[face]);
+  return out;
+}
+
+PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
+  PreparedScene out;
+  auto start = std::chrono::steady_clock::now();
+  out.mesh = load_mesh(scene.mesh.string());
+  out.stats = mesh_stats(out.mesh);
+  log << "mesh: " << describe(out.stats) << " (" << fmt("%.2f", seconds_since(start)) << " s)\n";
+  for (size_t i = 0; i < scene.boxes.size(); ++i) {
+    const BoxSpec& spec = scene.boxes[i];
+    const std::string tag = "box " + std::to_string(i) + ": ";
+    PreparedBox box;
+    box.deformer = make_deformer(scene, i);
+    box.textures.box = spec.box;
+    log << tag << box.deformer->describe() << "\n";
+
+    box.textures.sdf = bake_distance_grid(out.mesh, spec.box, spec.implicit);
+    const auto& sdf = box.textures.sdf;
+    log << tag << "distance grid " << dims_string(sdf.grid.dims) << ", voxel "
+        << fmt("%.4g", sdf.grid.spacing) << ", band " << fmt("%.3g", sdf.band_voxels) << " voxels, "
+        << sdf.active_voxels << " in band, " << fmt("%.1f", sdf.grid.size() * 4.0 / (1 << 20))
+        << " MiB, sign by " << sdf.sign_method << " (" << fmt("%.2f", sdf.bake_seconds) << " s)\n";
+
+    box.textures.deformation =
+        bake_deformation(*box.deformer, spec.box.half_extents, spec.deformation_resolution);
+    const auto& def = box.textures.deformation;
+    log << tag << "deformation texture " << dims_string(def.grid.dims) << ", texel "
+        << fmt("%.4g", def.grid.spacing) << ", " << fmt("%.1f", def.grid.size() * 16.0 / (1 << 20))
+        << " MiB (" << fmt("%.2f", def.bake_seconds) << " s)\n";
+
+    box.folds = measure_folds(*box.deformer, spec.box.half_extents);
+    if (box.folds.folds())
+      box.warnings.push_back(
+          "the deformation folds space in " + fmt("%.3g", box.folds.folded_volume) + " cubic units (" +
+          fmt("%.2f", 100.0 * box.folds.folded_volume / box.folds.box_volume) +
+          " % of the box, where det J <= 0); raywarp renders the non-folded branch there");
+    for (const auto& face : torn_faces(out.mesh, spec.box, *box.deformer))
+      box.warnings.push_back("the mesh crosses box face " + face +
+                             ", where the deformation is not the identity: the surface tears there");
+    double ray_length = def.grid.extent().norm();
+    double reach = scene.render.max_steps * scene.render.step_voxels * sdf.grid.spacing;
+    if (reach < ray_length)
+      box.warnings.push_back("render.max_steps = " + std::to_string(scene.render.max_steps) +
+                             " covers " + fmt("%.3g", reach) + " units of a ray, less than the " +
+                             fmt("%.3g", ray_length) +
+                             " across the deformed box: long rays stop early and miss");
+    for (const auto& w : box.warnings) log << tag << "warning: " << w << "\n";
+    out.boxes.push_back(std::move(box));
+  }
+  return out;
+}
+
+}  // namespace raywarp

@@ -1,0 +1,40 @@
+// From a validated scene to what the renderer needs: the mesh, and per box its distance grid,
+// its deformation texture, its deformer and what raywarp has to say about it (folds, seams).
+// The command line, the tests and the benchmarks share this one path.
+#pragma once
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "deformers/deformer.h"
+#include "library/mesh.h"
+#include "library/scene.h"
+#include "library/textures.h"
+
+namespace raywarp {
+
+struct PreparedBox {
+  BoxTextures textures;
+  std::shared_ptr<const Deformer> deformer;
+  FoldReport folds;
+  std::vector<std::string> warnings;
+};
+
+struct PreparedScene {
+  Mesh mesh;
+  MeshStats stats;
+  std::vector<PreparedBox> boxes;
+  std::vector<BoxTextures> textures() const;
+};
+
+// The deformer a scene box asks for; errors name the scene file and the field.
+std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_index);
+
+// Loads the mesh and bakes every box, logging stages, times and warnings to `log`.
+PreparedScene prepare_scene(const Scene& scene, std::ostream& log);
+
+// Faces of the box, as "-x", "+y", ..., that the mesh crosses where F is not the identity.
+std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer);
+
+}  // namespace raywarp

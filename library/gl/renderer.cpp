@@ -1,0 +1,360 @@
+#include "library/gl/renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "library/error.h"
+#include "library/gl/gl_api.h"
+#include "library/gl/shader_sources.h"
+
+namespace raywarp::gl {
+
+namespace {
+
+GLuint compile(GLenum kind, const std::string& name, const std::string& defines) {
+  std::string text =
+      assemble_shader(name, defines + (kind == GL_FRAGMENT_SHADER ? "#define RAYWARP_FRAGMENT\n" : ""));
+  GLuint shader = glCreateShader(kind);
+  const char* src = text.c_str();
+  glShaderSource(shader, 1, &src, nullptr);
+  glCompileShader(shader);
+  GLint ok = 0;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[4096];
+    glGetShaderInfoLog(shader, sizeof log, nullptr, log);
+    glDeleteShader(shader);
+    throw Error("shader " + name + " does not compile:\n" + log);
+  }
+  return shader;
+}
+
+GLuint link(const std::string& vert, const std::string& frag, const std::string& defines) {
+  GLuint vs = compile(GL_VERTEX_SHADER, vert, defines), fs = compile(GL_FRAGMENT_SHADER, frag, defines);
+  GLuint program = glCreateProgram();
+  glAttachShader(program, vs);
+  glAttachShader(program, fs);
+  glLinkProgram(program);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[4096];
+    glGetProgramInfoLog(program, sizeof log, nullptr, log);
+    glDeleteProgram(program);
+    throw Error("shaders " + vert + " + " + frag + " do not link:\n" + log);
+  }
+  return program;
+}
+
+Eigen::Matrix4f to_float(const Eigen::Matrix4d& m) { return m.cast<float>(); }
+
+struct Uniforms {
+  GLuint program;
+  GLint loc(const char* name) const { return glGetUniformLocation(program, name); }
+  void mat4(const char* name, const Eigen::Matrix4d& m) const {
+    Eigen::Matrix4f f = to_float(m);  // column-major, as GL expects
+    glUniformMatrix4fv(loc(name), 1, GL_FALSE, f.data());
+  }
+  void mat3(const char* name, const Eigen::Matrix3d& m) const {
+    Eigen::Matrix3f f = m.cast<float>();
+    glUniformMatrix3fv(loc(name), 1, GL_FALSE, f.data());
+  }
+  void vec3(const char* name, const Eigen::Vector3d& v) const {
+    glUniform3f(loc(name), float(v.x()), float(v.y()), float(v.z()));
+  }
+  void f1(const char* name, double x) const { glUniform1f(loc(name), float(x)); }
+  void i1(const char* name, int x) const { glUniform1i(loc(name), x); }
+};
+
+GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, const float* data) {
+  GLuint tex = 0;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_3D, tex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage3D(GL_TEXTURE_3D, 0, internal, dims.x(), dims.y(), dims.z(), 0, format, GL_FLOAT, data);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
+    glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
+  if (glGetError() != GL_NO_ERROR)
+    throw Error("OpenGL: cannot create a " + std::to_string(dims.x()) + "x" + std::to_string(dims.y()) +
+                "x" + std::to_string(dims.z()) + " 3D texture");
+  return tex;
+}
+
+struct BoxGpu {
+  BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
+  GLuint sdf = 0, deformation = 0;
+  size_t bytes = 0;
+};
+
+}  // namespace
+
+struct Renderer::Impl {
+  GLuint raster = 0, raycast = 0;
+  GLuint mesh_vao = 0, mesh_vbo[2] = {0, 0}, mesh_ebo = 0;
+  GLsizei mesh_indices = 0;
+  GLuint cube_vao = 0, cube_vbo = 0, cube_ebo = 0;
+  std::vector<BoxGpu> boxes;
+  GLuint fbo = 0, colour_tex = 0, depth_tex = 0, zbuffer = 0;
+  int fbo_w = 0, fbo_h = 0;
+
+  void release_boxes() {
+    for (auto& b : boxes) {
+      glDeleteTextures(1, &b.sdf);
+      glDeleteTextures(1, &b.deformation);
+    }
+    boxes.clear();
+  }
+
+  void ensure_framebuffer(int w, int h) {
+    if (fbo && w == fbo_w && h == fbo_h) return;
+    if (fbo) {
+      glDeleteFramebuffers(1, &fbo);
+      GLuint t[3] = {colour_tex, depth_tex, zbuffer};
+      glDeleteTextures(3, t);
+    }
+    auto tex2d = [&](GLenum internal, GLenum format, GLenum type) {
+      GLuint t = 0;
+      glGenTextures(1, &t);
+      glBindTexture(GL_TEXTURE_2D, t);
+      glTexImage2D(GL_TEXTURE_2D, 0, internal, w, h, 0, format, type, nullptr);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      return t;
+    };
+    colour_tex = tex2d(GL_RGBA8, GL_RGBA, GL_UNSIGNED_BYTE);
+    depth_tex = tex2d(GL_R32F, GL_RED, GL_FLOAT);
+    zbuffer = tex2d(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT);
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, colour_tex, 0);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, depth_tex, 0);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, zbuffer, 0);
+    GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(2, buffers);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error("OpenGL: cannot make a " + std::to_string(w) + "x" + std::to_string(h) + " framebuffer");
+    fbo_w = w;
+    fbo_h = h;
+  }
+
+  void set_camera(const Uniforms& u, const Camera& camera, int w, int h) {
+    Eigen::Matrix4d vp = camera.projection_matrix(double(w) / h) * camera.view();
+    u.mat4("u_view_proj", vp);
+    u.mat4("u_inv_view_proj", vp.inverse());
+    u.vec3("u_eye", camera.eye);
+    u.vec3("u_view_dir", camera.view_direction());
+    glUniform2f(u.loc("u_viewport"), float(w), float(h));
+    u.i1("u_orthographic", camera.projection == Camera::Projection::Orthographic);
+    u.vec3("u_albedo", Eigen::Vector3d::Zero());
+  }
+};
+
+Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
+  const std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
+  impl_->raster = link("raster.vert.glsl", "raster.frag.glsl", defines);
+  impl_->raycast = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
+  // The unit cube [0, 1]^3, scaled onto each box's ray-cast region by the vertex shader.
+  const float corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
+                               {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
+  // Counter-clockwise seen from outside.
+  const unsigned faces[36] = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                              2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+  glGenVertexArrays(1, &impl_->cube_vao);
+  glBindVertexArray(impl_->cube_vao);
+  glGenBuffers(1, &impl_->cube_vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, impl_->cube_vbo);
+  glBufferData(GL_ARRAY_BUFFER, sizeof corners, corners, GL_STATIC_DRAW);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+  glEnableVertexAttribArray(0);
+  glGenBuffers(1, &impl_->cube_ebo);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, impl_->cube_ebo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, sizeof faces, faces, GL_STATIC_DRAW);
+  glBindVertexArray(0);
+}
+
+Renderer::~Renderer() {
+  impl_->release_boxes();
+  glDeleteProgram(impl_->raster);
+  glDeleteProgram(impl_->raycast);
+  GLuint vaos[2] = {impl_->mesh_vao, impl_->cube_vao};
+  glDeleteVertexArrays(2, vaos);
+  GLuint buffers[5] = {impl_->mesh_vbo[0], impl_->mesh_vbo[1], impl_->mesh_ebo, impl_->cube_vbo,
+                       impl_->cube_ebo};
+  glDeleteBuffers(5, buffers);
+  if (impl_->fbo) {
+    glDeleteFramebuffers(1, &impl_->fbo);
+    GLuint t[3] = {impl_->colour_tex, impl_->depth_tex, impl_->zbuffer};
+    glDeleteTextures(3, t);
+  }
+}
+
+void Renderer::set_mesh(const Mesh& mesh) {
+  auto& m = *impl_;
+  if (!m.mesh_vao) {
+    glGenVertexArrays(1, &m.mesh_vao);
+    glGenBuffers(2, m.mesh_vbo);
+    glGenBuffers(1, &m.mesh_ebo);
+  }
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> positions = mesh.V.cast<float>();
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> normals = vertex_normals(mesh).cast<float>();
+  glBindVertexArray(m.mesh_vao);
+  glBindBuffer(GL_ARRAY_BUFFER, m.mesh_vbo[0]);
+  glBufferData(GL_ARRAY_BUFFER, positions.size() * sizeof(float), positions.data(), GL_STATIC_DRAW);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+  glEnableVertexAttribArray(0);
+  glBindBuffer(GL_ARRAY_BUFFER, m.mesh_vbo[1]);
+  glBufferData(GL_ARRAY_BUFFER, normals.size() * sizeof(float), normals.data(), GL_STATIC_DRAW);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+  glEnableVertexAttribArray(1);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m.mesh_ebo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, mesh.F.size() * sizeof(int), mesh.F.data(), GL_STATIC_DRAW);
+  glBindVertexArray(0);
+  m.mesh_indices = static_cast<GLsizei>(mesh.F.size());
+}
+
+void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
+  if (boxes.size() > static_cast<size_t>(kMaxBoxes))
+    throw Error("at most " + std::to_string(kMaxBoxes) + " boxes per scene, got " + std::to_string(boxes.size()));
+  impl_->release_boxes();
+  for (const auto& b : boxes) {
+    BoxGpu gpu;
+    gpu.data.box = b.box;
+    gpu.data.sdf.grid.origin = b.sdf.grid.origin;
+    gpu.data.sdf.grid.spacing = b.sdf.grid.spacing;
+    gpu.data.sdf.grid.dims = b.sdf.grid.dims;
+    gpu.data.sdf.background = b.sdf.background;
+    gpu.data.deformation.grid.origin = b.deformation.grid.origin;
+    gpu.data.deformation.grid.spacing = b.deformation.grid.spacing;
+    gpu.data.deformation.grid.dims = b.deformation.grid.dims;
+    gpu.sdf = upload_3d(GL_R32F, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
+    gpu.deformation = upload_3d(GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
+                                reinterpret_cast<const float*>(b.deformation.grid.data.data()));
+    gpu.bytes = b.sdf.grid.size() * sizeof(float) + b.deformation.grid.size() * 4 * sizeof(float);
+    impl_->boxes.push_back(gpu);
+  }
+}
+
+size_t Renderer::texture_bytes() const {
+  size_t n = 0;
+  for (const auto& b : impl_->boxes) n += b.bytes;
+  return n;
+}
+
+Image Renderer::render(const Camera& camera, int width, int height, const RenderSettings& settings,
+                       FrameStats* stats) {
+  auto& m = *impl_;
+  m.ensure_framebuffer(width, height);
+  glFinish();
+  auto start = std::chrono::steady_clock::now();
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glViewport(0, 0, width, height);
+  auto encode = [](double c) {
+    c = std::clamp(c, 0.0, 1.0);
+    return float(c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055);
+  };
+  const float background[4] = {encode(settings.background.x()), encode(settings.background.y()),
+                               encode(settings.background.z()), 1.0f};
+  const float far_depth[4] = {std::numeric_limits<float>::infinity(), 0, 0, 0};
+  const float one = 1.0f;
+  glClearBufferfv(GL_COLOR, 0, background);
+  glClearBufferfv(GL_COLOR, 1, far_depth);
+  glClearBufferfv(GL_DEPTH, 0, &one);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_CULL_FACE);
+
+  // Pass 1: the mesh outside the boxes.
+  Uniforms raster{m.raster};
+  glUseProgram(m.raster);
+  m.set_camera(raster, camera, width, height);
+  raster.vec3("u_albedo", settings.colour);
+  raster.i1("u_box_count", static_cast<int>(m.boxes.size()));
+  for (size_t i = 0; i < m.boxes.size(); ++i) {
+    std::string idx = "[" + std::to_string(i) + "]";
+    Eigen::Matrix4d to_box = m.boxes[i].data.box.local_to_object().inverse();
+    raster.mat4(("u_object_to_box" + idx).c_str(), to_box);
+    raster.vec3(("u_half_extents" + idx).c_str(), m.boxes[i].data.box.half_extents);
+  }
+  if (m.mesh_indices > 0) {
+    glBindVertexArray(m.mesh_vao);
+    glDrawElements(GL_TRIANGLES, m.mesh_indices, GL_UNSIGNED_INT, nullptr);
+  }
+
+  // Pass 2: per box, ray cast over the bounds of F(box); back faces only, so it also runs
+  // with the camera inside the bounds.
+  Uniforms rc{m.raycast};
+  glUseProgram(m.raycast);
+  m.set_camera(rc, camera, width, height);
+  rc.vec3("u_albedo", settings.colour);
+  rc.i1("u_sdf", 0);
+  rc.i1("u_deformation", 1);
+  rc.i1("u_max_steps", settings.max_steps);
+  rc.i1("u_refine_steps", settings.refine_steps);
+  glEnable(GL_CULL_FACE);
+  glCullFace(GL_FRONT);
+  glBindVertexArray(m.cube_vao);
+  for (const auto& b : m.boxes) {
+    const auto& sdf = b.data.sdf.grid;
+    const auto& def = b.data.deformation.grid;
+    rc.mat4("u_box_to_object", b.data.box.local_to_object());
+    rc.mat4("u_object_to_box", b.data.box.local_to_object().inverse());
+    rc.mat3("u_box_to_object_dir", b.data.box.rotation);
+    rc.vec3("u_half_extents", b.data.box.half_extents);
+    rc.vec3("u_region_lower", def.origin);
+    rc.vec3("u_region_upper", def.upper());
+    rc.vec3("u_sdf_origin", sdf.origin);
+    rc.vec3("u_sdf_size", sdf.extent());
+    rc.f1("u_sdf_spacing", sdf.spacing);
+    rc.f1("u_background", b.data.sdf.background);
+    rc.vec3("u_def_origin", def.origin);
+    rc.vec3("u_def_size", def.extent());
+    rc.f1("u_def_spacing", def.spacing);
+    rc.f1("u_step", settings.step_voxels * sdf.spacing);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_3D, b.sdf);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_3D, b.deformation);
+    glDrawElements(GL_TRIANGLES, 36, GL_UNSIGNED_INT, nullptr);
+  }
+  glDisable(GL_CULL_FACE);
+  glFinish();
+  auto stop = std::chrono::steady_clock::now();
+
+  // Read back; GL's row 0 is the bottom, raywarp's the top.
+  Image image(width, height);
+  std::vector<uint8_t> rgba(static_cast<size_t>(width) * height * 4);
+  std::vector<float> depth(static_cast<size_t>(width) * height);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  glReadBuffer(GL_COLOR_ATTACHMENT1);
+  glReadPixels(0, 0, width, height, GL_RED, GL_FLOAT, depth.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  long nonfinite = 0;
+  for (int y = 0; y < height; ++y) {
+    size_t src = static_cast<size_t>(height - 1 - y) * width, dst = static_cast<size_t>(y) * width;
+    for (int x = 0; x < width; ++x) {
+      float z = depth[src + x];
+      bool bad = std::isnan(z) || z == -std::numeric_limits<float>::infinity();
+      nonfinite += bad;
+      image.depth[dst + x] = bad ? std::numeric_limits<float>::infinity() : z;
+      for (int c = 0; c < 4; ++c)
+        image.rgba[4 * (dst + x) + c] =
+            bad ? static_cast<uint8_t>(std::lround(background[c] * 255.0f)) : rgba[4 * (src + x) + c];
+    }
+  }
+  if (stats) {
+    stats->milliseconds = std::chrono::duration<double, std::milli>(stop - start).count();
+    stats->nonfinite_pixels = nonfinite;
+  }
+  return image;
+}
+
+}  // namespace raywarp::gl

@@ -1,0 +1,667 @@
+#include "library/reference.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "library/error.h"
+
+namespace raywarp {
+
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// ---------------------------------------------------------------------------------------------
+// Shading: the same as shaders/shading.glsl, so that reference and GL images agree bit for bit
+// up to rounding.
+
+double srgb_encode(double c) {
+  c = std::clamp(c, 0.0, 1.0);
+  return c < 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+}
+
+// Headlight: the light comes from the eye along the ray.
+Vec3 shade(const RenderSettings& settings, const Vec3& normal, const Vec3& ray_direction) {
+  double lambert = std::max(normal.dot(-ray_direction), 0.0);
+  return settings.colour * (0.2 + 0.8 * lambert);
+}
+
+void put_colour(Image& image, int x, int y, const Vec3& linear_rgb) {
+  uint8_t* px = &image.rgba[4 * (static_cast<size_t>(y) * image.width + x)];
+  for (int c = 0; c < 3; ++c)
+    px[c] = static_cast<uint8_t>(std::lround(255.0 * srgb_encode(linear_rgb[c])));
+  px[3] = 255;
+}
+
+void check_image_size(const char* who, int width, int height) {
+  if (width < 1 || height < 1 || width > 8192 || height > 8192)
+    throw Error(std::string(who) + ": image size " + std::to_string(width) + " x " +
+                std::to_string(height) + ": each side must be in [1, 8192]");
+}
+
+// Runs body(i) for i in [0, count) on all hardware threads; body must not throw.
+template <class Body>
+void parallel_for(int count, const Body& body) {
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = std::min<unsigned>(threads, static_cast<unsigned>(std::max(count, 1)));
+  std::atomic<int> next{0};
+  auto work = [&] {
+    for (int i = next++; i < count; i = next++) body(i);
+  };
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Ray geometry.
+
+// Narrows [t0, t1] to the parameters where o + t d lies in the box [lo, hi] (slab method).
+// Returns false when the interval becomes empty.
+bool clip_to_aabb(const Vec3& o, const Vec3& d, const Vec3& lo, const Vec3& hi, double& t0,
+                  double& t1) {
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0.0) {
+      if (o[a] < lo[a] || o[a] > hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+struct TriangleHit {
+  double t, u, v;  // hit = (1 - u - v) a + u b + v c
+};
+
+// Moller & Trumbore 1997, both faces.
+std::optional<TriangleHit> intersect_triangle(const Vec3& o, const Vec3& d, const Vec3& a,
+                                              const Vec3& b, const Vec3& c) {
+  Vec3 e1 = b - a, e2 = c - a;
+  Vec3 pv = d.cross(e2);
+  double det = e1.dot(pv);
+  if (det == 0.0) return std::nullopt;
+  double inv = 1.0 / det;
+  Vec3 tv = o - a;
+  double u = tv.dot(pv) * inv;
+  if (u < 0.0 || u > 1.0) return std::nullopt;
+  Vec3 qv = tv.cross(e1);
+  double v = d.dot(qv) * inv;
+  if (v < 0.0 || u + v > 1.0) return std::nullopt;
+  return TriangleHit{e2.dot(qv) * inv, u, v};
+}
+
+struct MeshHit {
+  int face = -1;
+  TriangleHit hit{};
+};
+
+// A bounding volume hierarchy over a mesh's triangles, split at the median centroid along the
+// longest axis of the centroids' bounds.
+class TriangleBvh {
+ public:
+  explicit TriangleBvh(const Mesh& mesh) : mesh_(mesh) {
+    int n = static_cast<int>(mesh.F.rows());
+    order_.resize(n);
+    centroids_.resize(n);
+    for (int f = 0; f < n; ++f) {
+      order_[f] = f;
+      centroids_[f] = (mesh.vertex(f, 0) + mesh.vertex(f, 1) + mesh.vertex(f, 2)) / 3.0;
+    }
+    if (n > 0) build(0, n);
+    centroids_.clear();
+  }
+
+  // The nearest hit with t in [t_min, t_max] that `accept(t)` keeps.
+  template <class Accept>
+  std::optional<MeshHit> nearest(const Vec3& o, const Vec3& d, double t_min, double t_max,
+                                 const Accept& accept) const {
+    if (nodes_.empty()) return std::nullopt;
+    MeshHit best;
+    double best_t = t_max;
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      double t0 = t_min, t1 = best_t;
+      if (!clip_to_aabb(o, d, node.lower, node.upper, t0, t1)) continue;
+      if (node.count > 0) {
+        for (int k = node.first; k < node.first + node.count; ++k) {
+          int f = order_[k];
+          auto h = intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1),
+                                      mesh_.vertex(f, 2));
+          if (h && h->t >= t_min && h->t <= best_t && accept(h->t)) {
+            best_t = h->t;
+            best = MeshHit{f, *h};
+          }
+        }
+      } else {
+        stack[top++] = node.right;
+        stack[top++] = node.left;
+      }
+    }
+    if (best.face < 0) return std::nullopt;
+    return best;
+  }
+
+ private:
+  static constexpr int kLeafSize = 4;
+  struct Node {
+    Vec3 lower, upper;
+    int left = -1, right = -1;  // children (inner node)
+    int first = 0, count = 0;   // range of order_ (leaf, count > 0)
+  };
+
+  int build(int first, int count) {
+    int index = static_cast<int>(nodes_.size());
+    nodes_.emplace_back();
+    Vec3 lower = Vec3::Constant(kInfinity), upper = Vec3::Constant(-kInfinity);
+    Vec3 clower = lower, cupper = upper;
+    for (int k = first; k < first + count; ++k) {
+      int f = order_[k];
+      for (int c = 0; c < 3; ++c) {
+        lower = lower.cwiseMin(mesh_.vertex(f, c));
+        upper = upper.cwiseMax(mesh_.vertex(f, c));
+      }
+      clower = clower.cwiseMin(centroids_[f]);
+      cupper = cupper.cwiseMax(centroids_[f]);
+    }
+    nodes_[index].lower = lower;
+    nodes_[index].upper = upper;
+    if (count <= kLeafSize) {
+      nodes_[index].first = first;
+      nodes_[index].count = count;
+      return index;
+    }
+    int axis;
+    (cupper - clower).maxCoeff(&axis);
+    int half = count / 2;
+    std::nth_element(order_.begin() + first, order_.begin() + first + half,
+                     order_.begin() + first + count,
+                     [&](int a, int b) { return centroids_[a][axis] < centroids_[b][axis]; });
+    int left = build(first, half);
+    int right = build(first + half, count - half);
+    nodes_[index].left = left;
+    nodes_[index].right = right;
+    return index;
+  }
+
+  const Mesh& mesh_;
+  std::vector<Node> nodes_;
+  std::vector<int> order_;
+  std::vector<Vec3> centroids_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// The ray cast (Correa & Silver 2007, section 3), as in shaders/raycast.frag.glsl.
+
+// g(p') = f(p' + D(p')): the undeformed implicit surface seen through the inverse displacement
+// (section 3, warping then sampling); -background where p' has no preimage in the box.
+double deformed_distance(const BoxTextures& box, const Vec3& p_def) {
+  Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
+  if (dv.w() < 0.5) return -box.sdf.background;
+  Vec3 p = p_def + dv.head<3>();
+  if (!box.box.contains_local(p)) return -box.sdf.background;
+  return box.sdf.grid.sample(p).value();
+}
+
+Vec3 displacement(const BoxTextures& box, const Vec3& p_def) {
+  return box.deformation.grid.sample(p_def).head<3>();
+}
+
+// Outward unit normal of the deformed surface, eq. 5: (I + J_D)^T n(p' + D(p')) with n = -grad f
+// (f > 0 inside), both derivatives by central differences of the textures at their own
+// spacing. Falls back to -ray_direction where that vector vanishes.
+Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def, const Vec3& ray_direction) {
+  Vec3 p = p_def + displacement(box, p_def);
+  double hf = box.sdf.grid.spacing, hd = box.deformation.grid.spacing;
+  Vec3 grad_f;
+  Eigen::Matrix3d jd;  // columns: dD/dx, dD/dy, dD/dz
+  for (int a = 0; a < 3; ++a) {
+    Vec3 ef = Vec3::Unit(a) * hf, ed = Vec3::Unit(a) * hd;
+    grad_f[a] = (box.sdf.grid.sample(p + ef).value() - box.sdf.grid.sample(p - ef).value()) /
+                (2.0 * hf);
+    jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd);
+  }
+  Vec3 n = (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
+  double len = n.norm();
+  return len > 0.0 && std::isfinite(len) ? Vec3(n / len) : Vec3(-ray_direction);
+}
+
+// The parameter range of a local-frame ray inside the deformation texture's region, clipped to
+// [t_min, t_max]. Empty when t0 >= t1.
+std::pair<double, double> texture_range(const BoxTextures& box, const Vec3& o, const Vec3& d,
+                                        double t_min, double t_max) {
+  double t0 = t_min, t1 = t_max;
+  const auto& grid = box.deformation.grid;
+  if (!clip_to_aabb(o, d, grid.origin, grid.upper(), t0, t1)) return {kInfinity, -kInfinity};
+  return {t0, t1};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Splitting triangles at the box faces (ground_truth_mesh).
+
+using Polygon = std::vector<Vec3>;  // convex, in the box's local frame, source orientation
+
+// Splits `poly` by the plane side * q[axis] = h into the part on the box's side (<= h) and the
+// part beyond. A polygon that only touches the plane goes wholly to one side, so no area is
+// duplicated; new vertices are put exactly on the plane, so no piece straddles it.
+void split_polygon(const Polygon& poly, int axis, double side, double h, Polygon& inner,
+                   Polygon& outer) {
+  inner.clear();
+  outer.clear();
+  std::vector<double> s(poly.size());
+  double smin = kInfinity, smax = -kInfinity;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    s[i] = side * poly[i][axis] - h;
+    smin = std::min(smin, s[i]);
+    smax = std::max(smax, s[i]);
+  }
+  if (smax <= 0.0) {
+    inner = poly;
+    return;
+  }
+  if (smin >= 0.0) {
+    outer = poly;
+    return;
+  }
+  for (size_t i = 0; i < poly.size(); ++i) {
+    size_t j = (i + 1) % poly.size();
+    if (s[i] <= 0.0) inner.push_back(poly[i]);
+    if (s[i] >= 0.0) outer.push_back(poly[i]);
+    if ((s[i] < 0.0 && s[j] > 0.0) || (s[i] > 0.0 && s[j] < 0.0)) {
+      Vec3 x = poly[i] + (s[i] / (s[i] - s[j])) * (poly[j] - poly[i]);
+      x[axis] = side * h;
+      inner.push_back(x);
+      outer.push_back(x);
+    }
+  }
+  if (inner.size() < 3) inner.clear();
+  if (outer.size() < 3) outer.clear();
+}
+
+// True when all of the triangle lies beyond one face plane of the box (local frame).
+bool beyond_one_face(const std::array<Vec3, 3>& q, const Vec3& half) {
+  for (int a = 0; a < 3; ++a) {
+    if (q[0][a] > half[a] && q[1][a] > half[a] && q[2][a] > half[a]) return true;
+    if (q[0][a] < -half[a] && q[1][a] < -half[a] && q[2][a] < -half[a]) return true;
+  }
+  return false;
+}
+
+// A mesh under construction.
+struct MeshBuilder {
+  std::vector<Vec3> vertices;
+  std::vector<Eigen::Vector3i> faces;
+  int add(const Vec3& v) {
+    vertices.push_back(v);
+    return static_cast<int>(vertices.size()) - 1;
+  }
+  Mesh finish() {
+    Mesh m;
+    m.V.resize(static_cast<Eigen::Index>(vertices.size()), 3);
+    m.F.resize(static_cast<Eigen::Index>(faces.size()), 3);
+    for (size_t i = 0; i < vertices.size(); ++i) m.V.row(i) = vertices[i].transpose();
+    for (size_t i = 0; i < faces.size(); ++i) m.F.row(i) = faces[i].transpose();
+    return m;
+  }
+};
+
+// Bound on the faces ground_truth_mesh may produce (~2.4 GB of mesh data), checked before the
+// subdivision of each triangle is allocated.
+constexpr long kMaxGroundTruthFaces = 50'000'000;
+
+// Uniform subdivision of triangle (a, b, c) into n^2 triangles of the same orientation, each
+// vertex mapped by `map` before it is stored.
+template <class Map>
+void add_subdivided(MeshBuilder& out, const Vec3& a, const Vec3& b, const Vec3& c, int n,
+                    const Map& map) {
+  if (static_cast<long>(out.faces.size()) + static_cast<long>(n) * n > kMaxGroundTruthFaces)
+    throw Error("ground_truth_mesh: more than " + std::to_string(kMaxGroundTruthFaces) +
+                " triangles: choose a larger max_edge");
+  // Vertex (i, j) = a + i/n (b - a) + j/n (c - a), i + j <= n, stored row by row in j.
+  std::vector<int> index;
+  index.reserve(static_cast<size_t>(n + 1) * (n + 2) / 2);
+  auto at = [&](int i, int j) { return index[j * (n + 1) - j * (j - 1) / 2 + i]; };
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i + j <= n; ++i)
+      index.push_back(out.add(map(a + (static_cast<double>(i) / n) * (b - a) +
+                                  (static_cast<double>(j) / n) * (c - a))));
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i + j < n; ++i) {
+      out.faces.emplace_back(at(i, j), at(i + 1, j), at(i, j + 1));
+      if (i + j < n - 1) out.faces.emplace_back(at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rasterisation (rasterize).
+
+// A vertex in clip space with its linear eye depth, which is affine in the object position and
+// so interpolates with the same weights as the clip coordinates.
+struct ClipVertex {
+  Eigen::Vector4d clip;
+  double depth;
+};
+
+// A vertex on screen: pixel coordinates (row 0 at the top, pixel centres at +0.5), 1/w and
+// depth/w, both affine in screen space (perspective-correct interpolation).
+struct ScreenVertex {
+  double x, y, inv_w, depth_over_w;
+};
+
+struct ScreenPolygon {
+  std::array<ScreenVertex, 8> v;  // a triangle clipped by two planes has at most 5 vertices
+  int count = 0;
+};
+
+// Sutherland-Hodgman against one clip-space plane, keeping dist(v) >= 0.
+template <class Dist>
+int clip_polygon(const ClipVertex* in, int n, ClipVertex* out, const Dist& dist) {
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    const ClipVertex &p = in[i], &q = in[(i + 1) % n];
+    double dp = dist(p.clip), dq = dist(q.clip);
+    if (dp >= 0.0) out[m++] = p;
+    if ((dp >= 0.0) != (dq >= 0.0)) {
+      double s = dp / (dp - dq);
+      out[m++] = ClipVertex{p.clip + s * (q.clip - p.clip), p.depth + s * (q.depth - p.depth)};
+    }
+  }
+  return m;
+}
+
+// The first and last pixel (of `size`) whose centre, at index + 0.5, is >= lo or <= hi; the
+// range is empty when first > last.
+int first_centre(double lo, int size) {
+  return static_cast<int>(std::clamp(std::ceil(lo - 0.5), 0.0, static_cast<double>(size)));
+}
+int last_centre(double hi, int size) {
+  return static_cast<int>(std::clamp(std::floor(hi - 0.5), -1.0, size - 1.0));
+}
+
+class Rasterizer {
+ public:
+  Rasterizer(const Mesh& mesh, const Camera& camera, int width, int height)
+      : mesh_(mesh), width_(width), height_(height) {
+    Eigen::Matrix4d view_proj =
+        camera.projection_matrix(static_cast<double>(width) / height) * camera.view();
+    int nv = static_cast<int>(mesh.V.rows());
+    vertices_.resize(nv);
+    constexpr int kChunk = 4096;
+    parallel_for((nv + kChunk - 1) / kChunk, [&](int chunk) {
+      for (int v = chunk * kChunk; v < std::min(nv, (chunk + 1) * kChunk); ++v) {
+        Vec3 p = mesh.V.row(v).transpose();
+        vertices_[v] = ClipVertex{view_proj * p.homogeneous(), camera.depth_of(p)};
+      }
+    });
+  }
+
+  // Face f clipped to the near and far planes (-w <= z <= w) and projected to the screen.
+  ScreenPolygon project(int f) const {
+    std::array<ClipVertex, 8> a, b;
+    int n = 3;
+    bool inside = true;
+    for (int c = 0; c < 3; ++c) {
+      a[c] = vertices_[mesh_.F(f, c)];
+      const Eigen::Vector4d& h = a[c].clip;
+      inside = inside && h.z() >= -h.w() && h.z() <= h.w();
+    }
+    if (!inside) {
+      n = clip_polygon(a.data(), n, b.data(), [](const Eigen::Vector4d& h) { return h.z() + h.w(); });
+      n = clip_polygon(b.data(), n, a.data(), [](const Eigen::Vector4d& h) { return h.w() - h.z(); });
+    }
+    ScreenPolygon out;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector4d& h = a[i].clip;
+      if (!(h.w() > 0.0)) return ScreenPolygon{};
+      double inv_w = 1.0 / h.w();
+      out.v[i] = ScreenVertex{(h.x() * inv_w + 1.0) * 0.5 * width_,
+                              (1.0 - h.y() * inv_w) * 0.5 * height_, inv_w, a[i].depth * inv_w};
+    }
+    out.count = n < 3 ? 0 : n;
+    return out;
+  }
+
+  // Rows whose pixel centres the face may cover, [first, last]; first > last when none.
+  std::pair<int, int> rows(int f) const {
+    ScreenPolygon poly = project(f);
+    if (poly.count == 0) return {1, 0};
+    double lo = kInfinity, hi = -kInfinity;
+    for (int i = 0; i < poly.count; ++i) {
+      lo = std::min(lo, poly.v[i].y);
+      hi = std::max(hi, poly.v[i].y);
+    }
+    if (!std::isfinite(lo) || !std::isfinite(hi)) return {1, 0};
+    return {first_centre(lo, height_), last_centre(hi, height_)};
+  }
+
+  // Draws face f into rows [row0, row1] of the z-buffer `depth` and the face-id buffer.
+  void draw(int f, int row0, int row1, std::vector<double>& depth, std::vector<int>& face) const {
+    ScreenPolygon poly = project(f);
+    for (int k = 1; k + 1 < poly.count; ++k)
+      draw_triangle(poly.v[0], poly.v[k], poly.v[k + 1], f, row0, row1, depth, face);
+  }
+
+ private:
+  void draw_triangle(const ScreenVertex& a, const ScreenVertex& b, const ScreenVertex& c, int f,
+                     int row0, int row1, std::vector<double>& depth,
+                     std::vector<int>& face) const {
+    auto edge = [](const ScreenVertex& p, const ScreenVertex& q, double x, double y) {
+      return (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x);
+    };
+    double area = edge(a, b, c.x, c.y);
+    if (area == 0.0 || !std::isfinite(area)) return;
+    int y0 = std::max(row0, first_centre(std::min({a.y, b.y, c.y}), height_));
+    int y1 = std::min(row1, last_centre(std::max({a.y, b.y, c.y}), height_));
+    int x0 = first_centre(std::min({a.x, b.x, c.x}), width_);
+    int x1 = last_centre(std::max({a.x, b.x, c.x}), width_);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        double px = x + 0.5, py = y + 0.5;
+        double wa = edge(b, c, px, py) / area, wb = edge(c, a, px, py) / area,
+               wc = edge(a, b, px, py) / area;
+        if (wa < 0.0 || wb < 0.0 || wc < 0.0) continue;
+        double inv_w = wa * a.inv_w + wb * b.inv_w + wc * c.inv_w;
+        double d = (wa * a.depth_over_w + wb * b.depth_over_w + wc * c.depth_over_w) / inv_w;
+        size_t i = static_cast<size_t>(y) * width_ + x;
+        if (d < depth[i]) {
+          depth[i] = d;
+          face[i] = f;
+        }
+      }
+  }
+
+  const Mesh& mesh_;
+  int width_, height_;
+  std::vector<ClipVertex> vertices_;
+};
+
+}  // namespace
+
+std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d& origin,
+                                   const Eigen::Vector3d& direction, double t0, double t1,
+                                   const RenderSettings& settings) {
+  if (!(t0 < t1)) return std::nullopt;
+  auto g = [&](double t) { return deformed_distance(box, origin + t * direction); };
+  // Linear search (eq. 3) with a fixed step, bounded by max_steps.
+  const double step = settings.step_voxels * box.sdf.grid.spacing;
+  double lo = t0, hi = t0;
+  bool hit = g(t0) > 0.0;  // a ray that starts inside the surface hits at t0
+  for (int i = 1; i <= settings.max_steps && !hit; ++i) {
+    lo = hi;
+    hi = std::min(t0 + i * step, t1);
+    hit = g(hi) > 0.0;
+    if (hi >= t1) break;
+  }
+  if (!hit) return std::nullopt;
+  // Binary refinement between the last sample outside and the first inside.
+  for (int i = 0; i < settings.refine_steps; ++i) {
+    double mid = 0.5 * (lo + hi);
+    (g(mid) > 0.0 ? hi : lo) = mid;
+  }
+  RayHit out;
+  out.t = 0.5 * (lo + hi);
+  out.point = origin + out.t * direction;
+  out.normal = deformed_normal(box, out.point, direction);
+  return out;
+}
+
+Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
+                       const Camera& camera, int width, int height,
+                       const RenderSettings& settings) {
+  check_image_size("reference_render", width, height);
+  Image image(width, height);
+  const TriangleBvh bvh(mesh);
+  const auto normals = vertex_normals(mesh);
+  parallel_for(height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      Ray ray = camera.pixel_ray(x, y, width, height);
+      double best_t = kInfinity;
+      Vec3 normal = -ray.direction;
+      // The mesh where it lies outside every box (raster pass).
+      auto outside_boxes = [&](double t) {
+        Vec3 p = ray.origin + t * ray.direction;
+        return std::none_of(boxes.begin(), boxes.end(),
+                            [&](const BoxTextures& b) { return b.box.contains(p); });
+      };
+      if (auto h = bvh.nearest(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_boxes)) {
+        best_t = h->hit.t;
+        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->face, 0)).transpose() +
+                 h->hit.u * normals.row(mesh.F(h->face, 1)).transpose() +
+                 h->hit.v * normals.row(mesh.F(h->face, 2)).transpose();
+        if (n.norm() == 0.0) {
+          const Vec3 a = mesh.vertex(h->face, 0);
+          n = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+        }
+        if (n.norm() > 0.0) normal = n.normalized();
+      }
+      // The boxes (ray-cast pass); the local frame is rigid, so t is the same.
+      for (const BoxTextures& b : boxes) {
+        Vec3 o = b.box.to_local(ray.origin), d = b.box.direction_to_local(ray.direction);
+        auto [t0, t1] = texture_range(b, o, d, ray.t_min, ray.t_max);
+        if (auto h = ray_cast_box(b, o, d, t0, t1, settings); h && h->t < best_t) {
+          best_t = h->t;
+          normal = b.box.direction_to_object(h->normal);
+        }
+      }
+      if (best_t == kInfinity) {
+        put_colour(image, x, y, settings.background);
+        continue;
+      }
+      Vec3 p = ray.origin + best_t * ray.direction;
+      image.depth[static_cast<size_t>(y) * width + x] = static_cast<float>(camera.depth_of(p));
+      put_colour(image, x, y, shade(settings, normal, ray.direction));
+    }
+  });
+  return image;
+}
+
+Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
+                       const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
+                       double max_edge) {
+  if (!(max_edge > 0.0) || !std::isfinite(max_edge))
+    throw Error("ground_truth_mesh: max_edge = " + std::to_string(max_edge) +
+                ": must be a finite number > 0");
+  MeshBuilder out;
+  // Original vertices first, so triangles clear of the box keep their indices.
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) out.vertices.push_back(mesh.V.row(v).transpose());
+  const Vec3 half = box.half_extents;
+  auto deform = [&](const Vec3& q) { return box.to_object(forward_local(q)); };
+  auto keep = [&](const Vec3& q) { return box.to_object(q); };
+  struct Piece {
+    Polygon polygon;
+    bool inside;
+  };
+  std::vector<Piece> pieces;
+  Polygon inner, outer;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    std::array<Vec3, 3> q;
+    for (int c = 0; c < 3; ++c) q[c] = box.to_local(mesh.vertex(static_cast<int>(f), c));
+    if (beyond_one_face(q, half)) {
+      out.faces.push_back(mesh.F.row(f).transpose());
+      continue;
+    }
+    // Split by the six face planes; only the part still inside needs the later planes.
+    pieces.assign(1, Piece{Polygon(q.begin(), q.end()), true});
+    for (int a = 0; a < 3; ++a)
+      for (double side : {1.0, -1.0}) {
+        size_t n = pieces.size();
+        for (size_t k = 0; k < n; ++k) {
+          if (!pieces[k].inside) continue;
+          split_polygon(pieces[k].polygon, a, side, half[a], inner, outer);
+          pieces[k].polygon = inner;
+          if (!outer.empty()) pieces.push_back(Piece{outer, false});
+        }
+      }
+    for (const Piece& piece : pieces) {
+      const Polygon& poly = piece.polygon;
+      for (size_t k = 1; k + 1 < poly.size(); ++k) {
+        if (!piece.inside) {
+          out.faces.emplace_back(out.add(keep(poly[0])), out.add(keep(poly[k])),
+                                 out.add(keep(poly[k + 1])));
+          continue;
+        }
+        double longest = std::max({(poly[k] - poly[0]).norm(), (poly[k + 1] - poly[k]).norm(),
+                                   (poly[0] - poly[k + 1]).norm()});
+        int n = std::max(1, static_cast<int>(std::ceil(longest / max_edge)));
+        add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform);
+      }
+    }
+  }
+  return out.finish();
+}
+
+Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
+                const RenderSettings& settings) {
+  check_image_size("rasterize", width, height);
+  const Rasterizer raster(mesh, camera, width, height);
+  const int faces = static_cast<int>(mesh.F.rows());
+
+  // Rows each face may cover, so each band of rows only visits its own faces.
+  std::vector<std::pair<int, int>> rows(faces);
+  constexpr int kChunk = 4096;
+  parallel_for((faces + kChunk - 1) / kChunk, [&](int chunk) {
+    for (int f = chunk * kChunk; f < std::min(faces, (chunk + 1) * kChunk); ++f)
+      rows[f] = raster.rows(f);
+  });
+
+  std::vector<double> depth(static_cast<size_t>(width) * height, kInfinity);
+  std::vector<int> face(depth.size(), -1);
+  constexpr int kBandRows = 8;
+  parallel_for((height + kBandRows - 1) / kBandRows, [&](int band) {
+    int row0 = band * kBandRows, row1 = std::min(height, row0 + kBandRows) - 1;
+    for (int f = 0; f < faces; ++f)
+      if (rows[f].first <= row1 && rows[f].second >= row0) raster.draw(f, row0, row1, depth, face);
+  });
+
+  Image image(width, height);
+  parallel_for(height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      size_t i = static_cast<size_t>(y) * width + x;
+      if (face[i] < 0) {
+        put_colour(image, x, y, settings.background);
+        continue;
+      }
+      const Vec3 a = mesh.vertex(face[i], 0);
+      Vec3 n = (mesh.vertex(face[i], 1) - a).cross(mesh.vertex(face[i], 2) - a);
+      n = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero();
+      image.depth[i] = static_cast<float>(depth[i]);
+      put_colour(image, x, y, shade(settings, n, camera.pixel_ray(x, y, width, height).direction));
+    }
+  });
+  return image;
+}
+
+}  // namespace raywarp

@@ -1,0 +1,462 @@
+#include "library/scene.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <system_error>
+
+#include "library/error.h"
+
+namespace raywarp {
+
+namespace {
+
+using json = nlohmann::json;
+
+constexpr int kMaxBoxes = 16;
+// Coordinates and extents beyond this (object units) are refused: they are typos, and their
+// differences and products would lose all precision or overflow.
+constexpr double kMaxCoordinate = 1e12;
+constexpr double kMaxRotationDeg = 360.0;
+constexpr int kMaxImageSide = 8192;
+// Textures of all boxes together; checked at load time, before anything is allocated.
+constexpr std::uint64_t kMemoryBudgetBytes = std::uint64_t(4) << 30;
+
+// Deformer types of DESIGN.md that this release does not build yet, for a helpful message.
+constexpr const char* kLaterDeformers[] = {"peel", "incision", "box_cut", "points"};
+
+std::string format_number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  return buf;
+}
+
+// A value as the user wrote it, shortened so that a message stays one line.
+std::string show(const json& v) {
+  std::string s = v.dump(-1, ' ', false, json::error_handler_t::replace);
+  if (s.size() > 80) s = s.substr(0, 77) + "...";
+  return s;
+}
+
+std::string child(const std::string& field, const std::string& key) {
+  return field.empty() ? key : field + "." + key;
+}
+
+std::string element(const std::string& field, size_t i) {
+  return field + "[" + std::to_string(i) + "]";
+}
+
+// An interval of allowed numbers; infinite bounds mean "any finite number" on that side.
+struct Interval {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false, hi_open = false;
+
+  bool contains(double x) const {
+    return std::isfinite(x) && (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
+  }
+  // `kind` with its article: "a number", "an integer".
+  std::string describe(const std::string& kind) const {
+    bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+    if (!has_lo && !has_hi) return "must be " + kind + " (finite)";
+    if (!has_hi) return std::string("must be ") + (lo_open ? "> " : ">= ") + format_number(lo);
+    if (!has_lo) return std::string("must be ") + (hi_open ? "< " : "<= ") + format_number(hi);
+    return "must be " + kind + " in " + (lo_open ? "(" : "[") + format_number(lo) + ", " +
+           format_number(hi) + (hi_open ? ")" : "]");
+  }
+};
+
+Interval closed(double lo, double hi) { return {lo, hi, false, false}; }
+
+// Reads and validates one scene document; every error names the scene file, the field (a path
+// such as boxes[0].deformer.type), the value and what is allowed.
+class SceneReader {
+ public:
+  explicit SceneReader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& field, const json& value,
+                         const std::string& allowed) const {
+    throw Error(file_ + ": " + field + " = " + show(value) + ": " + allowed);
+  }
+  [[noreturn]] void missing(const std::string& field, const std::string& hint) const {
+    throw Error(file_ + ": " + field + ": missing; " + hint);
+  }
+
+  void require_object(const json& j, const std::string& field, const std::string& hint) const {
+    if (!j.is_object()) fail(field, j, "must be a JSON object " + hint);
+  }
+
+  // Unknown keys are errors (they are usually typos) that list the allowed keys.
+  void check_keys(const json& j, const std::string& field,
+                  std::initializer_list<const char*> allowed) const {
+    for (const auto& [key, value] : j.items()) {
+      bool known = false;
+      for (const char* k : allowed) known = known || key == k;
+      if (known) continue;
+      std::string list;
+      for (const char* k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
+      fail(child(field, key), value, "unknown field; allowed: " + list);
+    }
+  }
+
+  const json& required(const json& j, const std::string& field, const char* key,
+                       const std::string& hint) const {
+    if (!j.contains(key)) missing(child(field, key), hint);
+    return j[key];
+  }
+
+  double number(const json& v, const std::string& field, const Interval& allowed) const {
+    double x = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+    if (!allowed.contains(x)) fail(field, v, allowed.describe("a number"));
+    return x;
+  }
+
+  int integer(const json& v, const std::string& field, int lo, int hi) const {
+    // Compared as double: exact for every integer in range, and huge or unsigned values
+    // cannot wrap around into the range.
+    Interval allowed = closed(lo, hi);
+    if (!v.is_number_integer() || !allowed.contains(v.get<double>()))
+      fail(field, v, allowed.describe("an integer"));
+    return v.get<int>();
+  }
+
+  Eigen::Vector3d vec3(const json& v, const std::string& field, const Interval& allowed) const {
+    if (!v.is_array() || v.size() != 3) fail(field, v, "must be an array of 3 numbers");
+    Eigen::Vector3d out;
+    for (int i = 0; i < 3; ++i) out[i] = number(v[i], element(field, i), allowed);
+    return out;
+  }
+
+  std::string one_of(const json& v, const std::string& field,
+                     std::initializer_list<const char*> allowed,
+                     const std::string& note = "") const {
+    std::string list;
+    for (const char* k : allowed) {
+      if (v.is_string() && v.get<std::string>() == k) return k;
+      list += (list.empty() ? "" : ", ") + std::string(k);
+    }
+    fail(field, v, "must be one of " + list + note);
+  }
+
+  // An existing file named relative to the scene file's folder.
+  std::filesystem::path existing_file(const json& v, const std::string& field,
+                                      const std::filesystem::path& folder) const {
+    if (!v.is_string() || v.get<std::string>().empty())
+      fail(field, v, "must be a path (string) relative to the scene file");
+    std::filesystem::path resolved = (folder / v.get<std::string>()).lexically_normal();
+    std::error_code ec;
+    if (!std::filesystem::exists(resolved, ec))
+      fail(field, v, "no such file: " + resolved.string());
+    if (!std::filesystem::is_regular_file(resolved, ec))
+      fail(field, v, "not a regular file: " + resolved.string());
+    return resolved;
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+Eigen::Matrix3d rotation_from_euler_deg(const Eigen::Vector3d& deg) {
+  // R = Rz * Ry * Rx: a point is rotated about x first, then y, then z (fixed object axes).
+  Eigen::Vector3d rad = deg * (M_PI / 180.0);
+  return (Eigen::AngleAxisd(rad.z(), Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(rad.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(rad.x(), Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+const char* const kBoxForms =
+    "give either min and max, or centre and half_extents (with optional rotation_deg)";
+
+Box read_min_max(const SceneReader& r, const json& j, const std::string& field) {
+  const Interval coordinate = closed(-kMaxCoordinate, kMaxCoordinate);
+  Eigen::Vector3d lo =
+      r.vec3(r.required(j, field, "min", kBoxForms), child(field, "min"), coordinate);
+  Eigen::Vector3d hi =
+      r.vec3(r.required(j, field, "max", kBoxForms), child(field, "max"), coordinate);
+  for (int a = 0; a < 3; ++a)
+    if (!(hi[a] > lo[a]))
+      r.fail(
+          element(child(field, "max"), a), j["max"][a],
+          "must be greater than " + element(child(field, "min"), a) + " = " + format_number(lo[a]));
+  Box box;
+  box.centre = 0.5 * (lo + hi);
+  box.half_extents = 0.5 * (hi - lo);
+  return box;
+}
+
+Box read_centred(const SceneReader& r, const json& j, const std::string& field) {
+  if (j.contains("centre") && j.contains("center"))
+    r.fail(child(field, "center"), j["center"], "an alias of centre; give only one of them");
+  const char* centre_key = j.contains("center") ? "center" : "centre";
+  Box box;
+  box.centre = r.vec3(r.required(j, field, centre_key, kBoxForms), child(field, centre_key),
+                      closed(-kMaxCoordinate, kMaxCoordinate));
+  box.half_extents = r.vec3(r.required(j, field, "half_extents", kBoxForms),
+                            child(field, "half_extents"), {0.0, kMaxCoordinate, true, false});
+  if (j.contains("rotation_deg"))
+    box.rotation = rotation_from_euler_deg(r.vec3(j["rotation_deg"], child(field, "rotation_deg"),
+                                                  closed(-kMaxRotationDeg, kMaxRotationDeg)));
+  return box;
+}
+
+Box read_box_geometry(const SceneReader& r, const json& j, const std::string& field) {
+  bool axis_aligned = j.contains("min") || j.contains("max");
+  for (const char* key : {"centre", "center", "half_extents", "rotation_deg"})
+    if (axis_aligned && j.contains(key))
+      r.fail(child(field, key), j[key],
+             std::string("not allowed together with min/max; ") + kBoxForms);
+  return axis_aligned ? read_min_max(r, j, field) : read_centred(r, j, field);
+}
+
+DeformerSpec read_deformer(const SceneReader& r, const json& j, const std::string& field) {
+  if (j.is_array())
+    r.fail(field, j,
+           "must be one deformer object; lists of deformers are not available in this version");
+  r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
+  r.check_keys(j, field, {"type", "axis", "angle_deg"});
+  const std::string hint_type = "give one of twist, bend";
+  const json& type = r.required(j, field, "type", hint_type);
+  std::string note;
+  for (const char* later : kLaterDeformers)
+    if (type == later) note = " (" + std::string(later) + " is not available in this version)";
+  DeformerSpec d;
+  d.type = r.one_of(type, child(field, "type"), {"twist", "bend"}, note);
+  std::string axis = r.one_of(r.required(j, field, "axis", "give one of x, y, z"),
+                              child(field, "axis"), {"x", "y", "z"});
+  d.axis = axis[0] - 'x';
+  const json& angle = r.required(j, field, "angle_deg", "give the angle in degrees");
+  Interval range;  // twist: any finite angle
+  if (d.type == "bend") range = {-360.0, 360.0, true, true};
+  d.angle_deg = r.number(angle, child(field, "angle_deg"), range);
+  return d;
+}
+
+ImplicitSpec read_implicit(const SceneReader& r, const json& j, const std::string& field) {
+  r.require_object(j, field, "{\"type\": \"sdf\", \"resolution\": ...}");
+  r.check_keys(j, field, {"type", "resolution", "band_voxels", "margin_voxels"});
+  ImplicitSpec s;
+  if (j.contains("type")) s.type = r.one_of(j["type"], child(field, "type"), {"sdf"});
+  if (j.contains("resolution"))
+    s.resolution = r.integer(j["resolution"], child(field, "resolution"), 8, 1024);
+  if (j.contains("band_voxels"))
+    s.band_voxels = r.number(j["band_voxels"], child(field, "band_voxels"), closed(1, 32));
+  if (j.contains("margin_voxels"))
+    s.margin_voxels = r.number(j["margin_voxels"], child(field, "margin_voxels"), closed(0, 64));
+  return s;
+}
+
+int read_deformation(const SceneReader& r, const json& j, const std::string& field) {
+  r.require_object(j, field, "{\"resolution\": ...}");
+  r.check_keys(j, field, {"resolution"});
+  BoxSpec defaults;
+  if (!j.contains("resolution")) return defaults.deformation_resolution;
+  return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
+}
+
+BoxSpec read_box(const SceneReader& r, const json& j, const std::string& field) {
+  r.require_object(j, field, "{\"min\": ..., \"max\": ..., \"deformer\": ...}");
+  r.check_keys(j, field,
+               {"min", "max", "centre", "center", "half_extents", "rotation_deg", "deformer",
+                "implicit", "deformation", "cut_mode"});
+  if (j.contains("cut_mode"))
+    r.fail(child(field, "cut_mode"), j["cut_mode"],
+           "cuts are not available in this version; deformer types: twist, bend");
+  BoxSpec b;
+  b.box = read_box_geometry(r, j, field);
+  b.deformer = read_deformer(
+      r,
+      r.required(j, field, "deformer",
+                 "give {\"type\": \"twist\"|\"bend\", \"axis\": ..., \"angle_deg\": ...}"),
+      child(field, "deformer"));
+  if (j.contains("implicit"))
+    b.implicit = read_implicit(r, j["implicit"], child(field, "implicit"));
+  if (j.contains("deformation"))
+    b.deformation_resolution = read_deformation(r, j["deformation"], child(field, "deformation"));
+  return b;
+}
+
+// Separating axis test for two oriented boxes (Gottschalk, Lin & Manocha 1996): they are
+// disjoint iff their projections are disjoint on one of the 3 + 3 face normals or the 9 edge
+// cross products. Boxes that only touch (share a face, an edge or a corner) do not overlap.
+bool boxes_overlap(const Box& a, const Box& b) {
+  Eigen::Vector3d t = b.centre - a.centre;
+  double scale = a.half_extents.norm() + b.half_extents.norm() + t.norm();
+  auto separates = [&](Eigen::Vector3d axis) {
+    double n = axis.norm();
+    if (n < 1e-9) return false;  // parallel edges: the face normals decide
+    axis /= n;
+    double ra = (a.rotation.transpose() * axis).cwiseAbs().dot(a.half_extents);
+    double rb = (b.rotation.transpose() * axis).cwiseAbs().dot(b.half_extents);
+    return std::abs(t.dot(axis)) >= ra + rb - 1e-9 * scale;
+  };
+  for (int i = 0; i < 3; ++i)
+    if (separates(a.rotation.col(i)) || separates(b.rotation.col(i))) return false;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k)
+      if (separates(a.rotation.col(i).cross(b.rotation.col(k)))) return false;
+  return true;
+}
+
+std::string describe_box(const Box& b) {
+  auto v = [](const Eigen::Vector3d& x) {
+    return "[" + format_number(x.x()) + ", " + format_number(x.y()) + ", " + format_number(x.z()) +
+           "]";
+  };
+  return "centre " + v(b.centre) + ", half_extents " + v(b.half_extents);
+}
+
+void check_overlaps(const SceneReader& r, const json& boxes, const std::vector<BoxSpec>& specs) {
+  for (size_t i = 0; i < specs.size(); ++i)
+    for (size_t k = 0; k < i; ++k)
+      if (boxes_overlap(specs[k].box, specs[i].box))
+        r.fail(element("boxes", i), boxes[i],
+               "overlaps " + element("boxes", k) + " (" + describe_box(specs[k].box) + " vs " +
+                   describe_box(specs[i].box) + "); boxes must not overlap (touching is allowed)");
+}
+
+// Upper estimates of the textures of one box, in bytes: the distance grid as bake_distance_grid
+// lays it out (resolution voxels along the longest side, the others rounded up, plus the margin
+// on both sides), the deformation texture as at most resolution^3 texels of 4 floats (F(box)
+// is not known before the deformer runs; a cube is the worst case).
+std::uint64_t distance_grid_bytes(const BoxSpec& b) {
+  const Eigen::Vector3d& h = b.box.half_extents;
+  double spacing = h.maxCoeff() / b.implicit.resolution;
+  std::uint64_t margin = static_cast<std::uint64_t>(std::ceil(b.implicit.margin_voxels));
+  std::uint64_t voxels = 1;
+  for (int a = 0; a < 3; ++a)
+    voxels *=
+        std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(h[a] / spacing - 1e-9))) +
+        2 * margin;
+  return voxels * sizeof(float);
+}
+
+std::uint64_t deformation_bytes(const BoxSpec& b) {
+  std::uint64_t d = b.deformation_resolution;
+  return d * d * d * 4 * sizeof(float);
+}
+
+std::string gib(std::uint64_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f GiB", bytes / double(std::uint64_t(1) << 30));
+  return buf;
+}
+
+void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs) {
+  std::uint64_t grids = 0, textures = 0;
+  // The field to lower: the resolution with the largest texture.
+  std::uint64_t largest = 0;
+  std::string field;
+  int value = 0;
+  auto consider = [&](std::uint64_t bytes, std::string name, int resolution) {
+    if (bytes <= largest) return;
+    largest = bytes;
+    field = std::move(name);
+    value = resolution;
+  };
+  for (size_t i = 0; i < specs.size(); ++i) {
+    std::uint64_t g = distance_grid_bytes(specs[i]), t = deformation_bytes(specs[i]);
+    grids += g;
+    textures += t;
+    consider(g, element("boxes", i) + ".implicit.resolution", specs[i].implicit.resolution);
+    consider(t, element("boxes", i) + ".deformation.resolution", specs[i].deformation_resolution);
+  }
+  if (grids + textures <= kMemoryBudgetBytes) return;
+  r.fail(field, value,
+         "the textures of all boxes would take " + gib(grids + textures) + " (distance grids " +
+             gib(grids) + ", deformation textures " + gib(textures) +
+             "), more than the budget of " + gib(kMemoryBudgetBytes) + "; lower this resolution");
+}
+
+std::vector<BoxSpec> read_boxes(const SceneReader& r, const json& j) {
+  const std::string allowed = "must be a list of 1 to " + std::to_string(kMaxBoxes) + " boxes";
+  if (!j.is_array() || j.empty() || j.size() > static_cast<size_t>(kMaxBoxes))
+    r.fail("boxes", j, allowed);
+  std::vector<BoxSpec> specs;
+  for (size_t i = 0; i < j.size(); ++i) specs.push_back(read_box(r, j[i], element("boxes", i)));
+  check_overlaps(r, j, specs);
+  check_memory_budget(r, specs);
+  return specs;
+}
+
+Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::path& folder) {
+  if (j.is_object()) return camera_from_json(j, r.file() + ": camera");
+  if (!j.is_string()) r.fail("camera", j, "must be a path (string) or a camera object");
+  std::filesystem::path path = r.existing_file(j, "camera", folder);
+  try {
+    return load_camera(path.string());
+  } catch (const Error& e) {
+    throw Error(r.file() + ": camera = " + show(j) + ": " + e.what());
+  }
+}
+
+RenderSettings read_render(const SceneReader& r, const json& j) {
+  r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
+  r.check_keys(
+      j, "render",
+      {"width", "height", "step_voxels", "max_steps", "refine_steps", "background", "colour"});
+  RenderSettings s;
+  if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
+  if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
+  if (j.contains("step_voxels"))
+    s.step_voxels = r.number(j["step_voxels"], "render.step_voxels", {0.0, 8.0, true, false});
+  if (j.contains("max_steps"))
+    s.max_steps = r.integer(j["max_steps"], "render.max_steps", 1, 100000);
+  if (j.contains("refine_steps"))
+    s.refine_steps = r.integer(j["refine_steps"], "render.refine_steps", 0, 64);
+  if (j.contains("background"))
+    s.background = r.vec3(j["background"], "render.background", closed(0, 1));
+  if (j.contains("colour")) s.colour = r.vec3(j["colour"], "render.colour", closed(0, 1));
+  return s;
+}
+
+json parse_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error(path.string() + ": cannot open the scene file (no such file)");
+  std::ifstream in(path);
+  if (!in) throw Error(path.string() + ": cannot open the scene file");
+  try {
+    return json::parse(in);
+  } catch (const json::exception& e) {
+    // parse_error (with line and column), and out_of_range for numbers beyond double.
+    throw Error(path.string() + ": not valid JSON: " + e.what());
+  }
+}
+
+}  // namespace
+
+Scene load_scene(const std::filesystem::path& path) {
+  json root = parse_file(path);
+  SceneReader r(path.string());
+  if (!root.is_object())
+    throw Error(path.string() + ": the scene = " + show(root) +
+                ": must be a JSON object with mesh, boxes, camera, render");
+  r.check_keys(root, "", {"mesh", "boxes", "camera", "render"});
+  Scene scene;
+  scene.file = path;
+  std::filesystem::path folder = path.parent_path();
+  scene.mesh = r.existing_file(
+      r.required(root, "", "mesh", "give the mesh file, relative to the scene file"), "mesh",
+      folder);
+  scene.boxes = read_boxes(r, r.required(root, "", "boxes", "give a list of 1 to 16 boxes"));
+  if (root.contains("camera")) scene.camera = read_camera(r, root["camera"], folder);
+  if (root.contains("render")) scene.render = read_render(r, root["render"]);
+  return scene;
+}
+
+Eigen::Vector2i image_size(const Scene& scene, const Camera& camera, int cli_width,
+                           int cli_height) {
+  auto pick = [](int cli, int cam, int render) { return cli > 0 ? cli : cam > 0 ? cam : render; };
+  return {pick(cli_width, camera.width, scene.render.width),
+          pick(cli_height, camera.height, scene.render.height)};
+}
+
+}  // namespace raywarp

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs what raywarp needs from Debian 12's archive (only what is missing), then configures
+# and builds. Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build}
+shift || true
+packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboost-iostreams-dev
+          libtbb-dev libassimp-dev libosmesa6-dev libgl-dev nlohmann-json3-dev libcli11-dev
+          libstb-dev libgtest-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "raywarp setup: installing ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" = 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+jobs=$(nproc 2>/dev/null || echo 2)
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+cmake --build "$build" -j "$jobs"
