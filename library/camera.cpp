@@ -164,10 +164,10 @@ Camera load_camera(const std::string& path) {
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
     throw Error(path + ": not valid JSON: " + e.what());
   }
-  return camera_from_json(j, path);
+  return camera_from_json(j, path + ": camera");
 }
 
 nlohmann::json camera_to_json(const Camera& c) {

@@ -1,6 +1,7 @@
 #include "library/image.h"
 
 #include <stb/stb_image_write.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <bit>
@@ -11,8 +12,6 @@
 #include <functional>
 #include <limits>
 #include <system_error>
-
-#include <unistd.h>
 
 #include "library/error.h"
 
@@ -78,8 +77,7 @@ void write_mask_png(const std::string& path, const Image& image) {
     for (int x = 0; x < image.width; ++x)
       mask[static_cast<size_t>(y) * image.width + x] = image.covered(x, y) ? 255 : 0;
   write_via_temporary(path, "mask PNG", [&](const std::string& tmp) {
-    return stbi_write_png(tmp.c_str(), image.width, image.height, 1, mask.data(), image.width) !=
-           0;
+    return stbi_write_png(tmp.c_str(), image.width, image.height, 1, mask.data(), image.width) != 0;
   });
 }
 

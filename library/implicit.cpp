@@ -1,6 +1,6 @@
-// The signed distance grid of a mesh over a box (see implicit.h): unsigned narrow-band distances
-// from OpenVDB, the sign from the generalised winding number. The only file that includes
-// OpenVDB: its headers take ~30 s to compile.
+// The signed distance grid of a mesh over a box (see implicit.h): the narrow band from OpenVDB,
+// its distances measured exactly, the sign from the generalised winding number. The only file
+// that includes OpenVDB: its headers take ~30 s to compile.
 #include "library/implicit.h"
 
 #include <openvdb/openvdb.h>
@@ -9,11 +9,13 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -87,6 +89,9 @@ void check_memory(const GridShape& shape, const ImplicitSpec& spec, size_t budge
   }
 }
 
+// Share of the "distance" stage spent in OpenVDB; the exact pass takes the rest.
+constexpr double kVdbShare = 0.7;
+
 // OpenVDB's interrupter interface, forwarding the main thread's percentages to `progress` as
 // stage "distance". The voxelizer polls wasInterrupted() (no percentage) from worker threads:
 // those calls only read the flag, so `progress` is called from one thread at a time.
@@ -97,7 +102,9 @@ class DistanceInterrupter {
   void end() {}
   bool wasInterrupted(int percent = -1) {
     if (percent >= 0 && progress_ && !cancelled_.load()) {
-      if (!progress_("distance", std::clamp(percent, 0, 100) / 100.0)) cancelled_ = true;
+      if (!progress_("distance", kVdbShare * std::clamp(percent, 0, 100) / 100.0)) {
+        cancelled_ = true;
+      }
     }
     return cancelled_.load();
   }
@@ -112,47 +119,160 @@ void report(const Progress& progress, const char* stage, double fraction) {
   if (progress && !progress(stage, fraction)) throw Error("distance grid bake cancelled");
 }
 
-// Mesh vertices in the box's local frame, as OpenVDB's single-precision world-space points.
-std::vector<openvdb::Vec3s> local_points(const Mesh& mesh, const Box& box) {
-  std::vector<openvdb::Vec3s> points(static_cast<size_t>(mesh.V.rows()));
-  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
-    const Eigen::Vector3d q = box.to_local(mesh.V.row(v).transpose());
-    points[v] = openvdb::Vec3s(float(q.x()), float(q.y()), float(q.z()));
-  }
-  return points;
-}
+using Triangle = std::array<openvdb::Vec3d, 3>;
 
-// Triangles whose bounds overlap `region`: only those can be within the band of a texel.
-std::vector<openvdb::Vec3I> triangles_near(const Mesh& mesh,
-                                           const std::vector<openvdb::Vec3s>& points,
-                                           const Eigen::AlignedBox3d& region) {
-  std::vector<openvdb::Vec3I> triangles;
+// The triangles that can be within the band of a texel (their bounds overlap the grid grown by
+// the band and a voxel), in the box's local frame.
+struct NearTriangles {
+  std::vector<openvdb::Vec3s> points;  // every mesh vertex, single precision, for OpenVDB
+  std::vector<openvdb::Vec3I> indices;
+  std::vector<Triangle> corners;  // double precision, for the exact distances
+};
+
+NearTriangles triangles_near(const Mesh& mesh, const Box& box, const Eigen::AlignedBox3d& region) {
+  NearTriangles near;
+  std::vector<Eigen::Vector3d> local(static_cast<size_t>(mesh.V.rows()));
+  near.points.resize(local.size());
+  for (size_t v = 0; v < local.size(); ++v) {
+    local[v] = box.to_local(mesh.V.row(static_cast<Eigen::Index>(v)).transpose());
+    near.points[v] = openvdb::Vec3s(float(local[v].x()), float(local[v].y()), float(local[v].z()));
+  }
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     Eigen::AlignedBox3d bounds;
+    for (int c = 0; c < 3; ++c) bounds.extend(local[mesh.F(f, c)]);
+    if (!bounds.intersects(region)) continue;
+    near.indices.emplace_back(mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2));
+    Triangle t;
     for (int c = 0; c < 3; ++c) {
-      const openvdb::Vec3s& p = points[mesh.F(f, c)];
-      bounds.extend(Eigen::Vector3d(p.x(), p.y(), p.z()));
+      const Eigen::Vector3d& p = local[mesh.F(f, c)];
+      t[c] = openvdb::Vec3d(p.x(), p.y(), p.z());
     }
-    if (bounds.intersects(region)) {
-      triangles.emplace_back(mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2));
-    }
+    near.corners.push_back(t);
   }
-  return triangles;
+  return near;
 }
 
-// Unsigned narrow-band distances read back at every texel; `band` marks the texels OpenVDB
-// computed (its active voxels), the rest read `background`.
+// Bounding-box tree over triangles for the exact distance from a point, searched only within
+// a given bound (a narrow band needs no farther answer).
+class TriangleTree {
+ public:
+  explicit TriangleTree(std::vector<Triangle> triangles) : triangles_(std::move(triangles)) {
+    if (triangles_.empty()) return;
+    std::vector<openvdb::Vec3d> centroids(triangles_.size());
+    for (size_t t = 0; t < triangles_.size(); ++t) {
+      centroids[t] = (triangles_[t][0] + triangles_[t][1] + triangles_[t][2]) / 3.0;
+    }
+    std::vector<int> order(triangles_.size());
+    std::iota(order.begin(), order.end(), 0);
+    build(order, centroids, 0, static_cast<int>(order.size()));
+    std::vector<Triangle> sorted(triangles_.size());
+    for (size_t i = 0; i < order.size(); ++i) sorted[i] = triangles_[order[i]];
+    triangles_ = std::move(sorted);
+  }
+
+  // min(bound, distance from p to the nearest triangle).
+  double nearest(const openvdb::Vec3d& p, double bound) const {
+    if (nodes_.empty()) return bound;
+    double best2 = bound * bound;
+    int stack[64];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      if (node.box_distance2(p) >= best2) continue;
+      if (node.left < 0) {
+        openvdb::Vec3d uvw;
+        for (int i = node.first; i < node.first + node.count; ++i) {
+          const Triangle& t = triangles_[i];
+          best2 = std::min(
+              best2, (p - openvdb::math::closestPointOnTriangleToPoint(t[0], t[1], t[2], p, uvw))
+                         .lengthSqr());
+        }
+      } else {
+        // Nearer child last, so it is searched first and tightens the bound for the other.
+        const bool left_first =
+            nodes_[node.left].box_distance2(p) <= nodes_[node.right].box_distance2(p);
+        stack[top++] = left_first ? node.right : node.left;
+        stack[top++] = left_first ? node.left : node.right;
+      }
+    }
+    return std::sqrt(best2);
+  }
+
+ private:
+  static constexpr int kLeafSize = 4;
+
+  struct Node {
+    openvdb::Vec3d lower, upper;
+    int first = 0, count = 0;
+    int left = -1, right = -1;
+    double box_distance2(const openvdb::Vec3d& p) const {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double d = std::max({lower[a] - p[a], 0.0, p[a] - upper[a]});
+        d2 += d * d;
+      }
+      return d2;
+    }
+  };
+
+  // Median split on the longest axis of the centroids (depth <= log2(n) + 1 < 64).
+  int build(std::vector<int>& order, const std::vector<openvdb::Vec3d>& centroids, int first,
+            int last) {
+    const int index = static_cast<int>(nodes_.size());
+    nodes_.emplace_back();
+    Node node;
+    node.first = first;
+    node.count = last - first;
+    node.lower = openvdb::Vec3d(std::numeric_limits<double>::max());
+    node.upper = openvdb::Vec3d(-std::numeric_limits<double>::max());
+    openvdb::Vec3d clower = node.lower, cupper = node.upper;
+    for (int i = first; i < last; ++i) {
+      for (const openvdb::Vec3d& v : triangles_[order[i]]) {
+        node.lower = openvdb::math::minComponent(node.lower, v);
+        node.upper = openvdb::math::maxComponent(node.upper, v);
+      }
+      clower = openvdb::math::minComponent(clower, centroids[order[i]]);
+      cupper = openvdb::math::maxComponent(cupper, centroids[order[i]]);
+    }
+    if (last - first > kLeafSize) {
+      const int axis = static_cast<int>(openvdb::math::MaxIndex(cupper - clower));
+      const int middle = first + (last - first) / 2;
+      std::nth_element(order.begin() + first, order.begin() + middle, order.begin() + last,
+                       [&](int s, int t) { return centroids[s][axis] < centroids[t][axis]; });
+      node.left = build(order, centroids, first, middle);
+      node.right = build(order, centroids, middle, last);
+    }
+    nodes_[index] = node;
+    return index;
+  }
+
+  std::vector<Triangle> triangles_;
+  std::vector<Node> nodes_;
+};
+
+enum TexelState : uint8_t { kUnvisited = 0, kQueued, kBeyond, kBand };
+
+// Unsigned distances: band texels (nearer than `background` to a triangle) get their exact
+// distance, the others `background`. OpenVDB's narrow band says which texels to look at, but
+// only its values under 1.5 voxels are exact: its voxelizer measures each triangle exactly at
+// the voxels within Chebyshev distance 1.5 of it (the 26-neighbours of the voxels it crosses),
+// while its band expansion beyond measures to a triangle near the nearest one, up to ~0.9 voxel
+// too far (OpenVDB 10), and drops texels that this pushes past the band. So its values from
+// 1.5 voxels on are measured again exactly (they bound the search), and the band grows from
+// there through 6-neighbours while they are nearer than `background`. That finds every band
+// texel: from a texel, a step along the largest component towards its nearest surface point
+// does not increase the distance, down to the texels at the surface, which OpenVDB has.
 void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
-                        const Progress& progress, Grid3<float>& grid, std::vector<uint8_t>& band,
+                        const Progress& progress, Grid3<float>& grid, std::vector<uint8_t>& state,
                         float background) {
   std::fill(grid.data.begin(), grid.data.end(), background);
-  band.assign(grid.size(), 0);
-  const std::vector<openvdb::Vec3s> points = local_points(mesh, box);
+  state.assign(grid.size(), kUnvisited);
   const double reach = (spec.band_voxels + 1.0) * grid.spacing;
   const Eigen::AlignedBox3d region(grid.origin - Eigen::Vector3d::Constant(reach),
                                    grid.upper() + Eigen::Vector3d::Constant(reach));
-  const std::vector<openvdb::Vec3I> triangles = triangles_near(mesh, points, region);
-  if (triangles.empty()) return;
+  NearTriangles near = triangles_near(mesh, box, region);
+  if (near.indices.empty()) return;
 
   openvdb::initialize();
   // Index space: VDB voxel (i, j, k) sits at translation + (i, j, k) * spacing, our texel
@@ -162,33 +282,98 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
       openvdb::math::Transform::createLinearTransform(grid.spacing);
   const Eigen::Vector3d first_centre = grid.texel_centre(0, 0, 0);
   transform->postTranslate(openvdb::Vec3d(first_centre.x(), first_centre.y(), first_centre.z()));
-
   DistanceInterrupter interrupter(progress);
   const std::vector<openvdb::Vec4I> no_quads;
   openvdb::FloatGrid::Ptr vdb = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
-      interrupter, *transform, points, triangles, no_quads, float(spec.band_voxels));
+      interrupter, *transform, near.points, near.indices, no_quads, float(spec.band_voxels));
   if (interrupter.cancelled()) throw Error("distance grid bake cancelled");
 
+  // OpenVDB's value is the distance to some triangle, in single precision from single-precision
+  // points: padded by rounding (~1e-7 of coordinates ~resolution voxels), it bounds the search.
+  const float exact_below = float(1.5 * grid.spacing);
+  const int nx = grid.dims.x(), ny = grid.dims.y(), nz = grid.dims.z();
+  std::vector<uint32_t> wave, next;
+  // Queues the unvisited 6-neighbours of band texel t.
+  auto grow = [&](uint32_t t) {
+    const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
+    const int neighbours[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
+                                  {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
+    for (const auto& m : neighbours) {
+      if (m[0] < 0 || m[1] < 0 || m[2] < 0 || m[0] >= nx || m[1] >= ny || m[2] >= nz) continue;
+      const size_t u = grid.index(m[0], m[1], m[2]);
+      if (state[u] == kUnvisited) {
+        state[u] = kQueued;
+        next.push_back(static_cast<uint32_t>(u));
+      }
+    }
+  };
   for (auto it = vdb->cbeginValueOn(); it; ++it) {
-    if (!it.isVoxelValue()) continue;  // a band of a few voxels has no active tiles
     const openvdb::Coord ijk = it.getCoord();
-    if (ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 || ijk.x() >= grid.dims.x() ||
-        ijk.y() >= grid.dims.y() || ijk.z() >= grid.dims.z()) {
+    if (!it.isVoxelValue() || ijk.x() < 0 || ijk.y() < 0 || ijk.z() < 0 ||
+        ijk.x() >= grid.dims.x() || ijk.y() >= grid.dims.y() || ijk.z() >= grid.dims.z()) {
+      continue;  // a band of a few voxels has no active tiles; texels outside the grid
+    }
+    const size_t t = grid.index(ijk.x(), ijk.y(), ijk.z());
+    const float value = std::abs(*it);
+    if (value < exact_below) {
+      grid.data[t] = value;
+      state[t] = kBand;
       continue;
     }
-    const size_t index = grid.index(ijk.x(), ijk.y(), ijk.z());
-    grid.data[index] = std::min(std::abs(*it), background);
-    band[index] = 1;
+    state[t] = kQueued;
+    grid.data[t] = std::min(background, float(value * (1.0 + 1e-5) + 1e-3 * grid.spacing));
+    wave.push_back(static_cast<uint32_t>(t));
+  }
+  // The growth starts from every band texel, also the exact ones.
+  for (size_t t = 0; t < state.size(); ++t) {
+    if (state[t] == kBand) grow(static_cast<uint32_t>(t));
+  }
+  near.points.clear();
+  near.indices.clear();
+
+  wave.insert(wave.end(), next.begin(), next.end());
+  next.clear();
+
+  const TriangleTree tree(std::move(near.corners));
+  std::vector<float> distance;
+  size_t measured = 0;
+  const size_t expected = wave.size();  // for progress; the growth adds a little
+  while (!wave.empty()) {
+    report(progress, "distance",
+           kVdbShare + (1.0 - kVdbShare) * std::min(1.0, double(measured) / double(expected)));
+    distance.resize(wave.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, wave.size()), [&](const auto& range) {
+      for (size_t n = range.begin(); n != range.end(); ++n) {
+        const uint32_t t = wave[n];
+        const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
+        const Eigen::Vector3d q = grid.texel_centre(i, j, k);
+        distance[n] = float(tree.nearest(openvdb::Vec3d(q.x(), q.y(), q.z()), grid.data[t]));
+      }
+    });
+    measured += wave.size();
+    for (size_t n = 0; n < wave.size(); ++n) {
+      const uint32_t t = wave[n];
+      if (distance[n] < background) {
+        state[t] = kBand;
+        grid.data[t] = distance[n];
+        grow(t);
+      } else {
+        state[t] = kBeyond;
+        grid.data[t] = background;
+      }
+    }
+    wave.swap(next);
+    next.clear();
   }
 }
 
 // Inside (+1) or outside (-1) of every band texel, w > 1/2 being inside.
 void sign_band(const WindingNumber& winding, const Box& box, const Grid3<float>& grid,
-               const std::vector<uint8_t>& band, const Progress& progress,
+               const std::vector<uint8_t>& state, const Progress& progress,
                std::vector<int8_t>& sign) {
   std::vector<uint32_t> texels;
-  for (size_t t = 0; t < band.size(); ++t) {
-    if (band[t]) texels.push_back(static_cast<uint32_t>(t));
+  for (size_t t = 0; t < state.size(); ++t) {
+    if (state[t] == kBand) texels.push_back(static_cast<uint32_t>(t));
   }
   const int nx = grid.dims.x(), ny = grid.dims.y();
   // Batches between progress reports; each batch runs in parallel.
@@ -262,22 +447,22 @@ DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const Implicit
   Grid3<float>& grid = result.grid;
 
   report(progress, "distance", 0.0);
-  std::vector<uint8_t> band;
-  unsigned_distances(mesh, box, spec, progress, grid, band, result.background);
+  std::vector<uint8_t> state;
+  unsigned_distances(mesh, box, spec, progress, grid, state, result.background);
   report(progress, "distance", 1.0);
 
   // The whole mesh decides inside, also its parts beyond the box: a hole or a cut there must
   // not turn the inside out. Queries go to object space, where the mesh is.
   const WindingNumber winding(mesh);
   std::vector<int8_t> sign(grid.size(), 0);
-  sign_band(winding, box, grid, band, progress, sign);
+  sign_band(winding, box, grid, state, progress, sign);
   sign_beyond_band(winding, box, grid, sign);
   report(progress, "sign", 1.0);
 
   long active = 0;
   for (size_t t = 0; t < grid.size(); ++t) {
     grid.data[t] *= float(sign[t]);  // raywarp's sign: f > 0 inside
-    active += band[t];
+    active += state[t] == kBand;
     if (!std::isfinite(grid.data[t])) {
       throw std::logic_error("bake_distance_grid: texel " + std::to_string(t) + " is not finite");
     }

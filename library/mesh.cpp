@@ -138,8 +138,8 @@ MeshStats mesh_stats(const Mesh& mesh) {
   edges.reserve(3 * static_cast<size_t>(mesh.F.rows()));
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     const Eigen::Vector3d a = mesh.vertex(f, 0), b = mesh.vertex(f, 1), c = mesh.vertex(f, 2);
-    const double longest2 = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(),
-                                      (a - c).squaredNorm()});
+    const double longest2 =
+        std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
     // Zero area up to rounding: |(b - a) x (c - a)| is computed to ~1e-16 of longest^2.
     if ((b - a).cross(c - a).norm() <= 1e-12 * longest2) ++stats.degenerate_faces;
     for (int c0 = 0; c0 < 3; ++c0) {

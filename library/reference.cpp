@@ -17,8 +17,8 @@ using Vec3 = Eigen::Vector3d;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // ---------------------------------------------------------------------------------------------
-// Shading: the same as shaders/shading.glsl, so that reference and GL images agree bit for bit
-// up to rounding.
+// Shading: the same as shaders/shading.glsl, so that reference and GL images agree up to
+// rounding.
 
 double srgb_encode(double c) {
   c = std::clamp(c, 0.0, 1.0);
@@ -139,8 +139,8 @@ class TriangleBvh {
       if (node.count > 0) {
         for (int k = node.first; k < node.first + node.count; ++k) {
           int f = order_[k];
-          auto h = intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1),
-                                      mesh_.vertex(f, 2));
+          auto h =
+              intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1), mesh_.vertex(f, 2));
           if (h && h->t >= t_min && h->t <= best_t && accept(h->t)) {
             best_t = h->t;
             best = MeshHit{f, *h};
@@ -230,8 +230,8 @@ Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def, const Vec3& ray_
   Eigen::Matrix3d jd;  // columns: dD/dx, dD/dy, dD/dz
   for (int a = 0; a < 3; ++a) {
     Vec3 ef = Vec3::Unit(a) * hf, ed = Vec3::Unit(a) * hd;
-    grad_f[a] = (box.sdf.grid.sample(p + ef).value() - box.sdf.grid.sample(p - ef).value()) /
-                (2.0 * hf);
+    grad_f[a] =
+        (box.sdf.grid.sample(p + ef).value() - box.sdf.grid.sample(p - ef).value()) / (2.0 * hf);
     jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd);
   }
   Vec3 n = (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
@@ -324,6 +324,9 @@ constexpr long kMaxGroundTruthFaces = 50'000'000;
 
 // Uniform subdivision of triangle (a, b, c) into n^2 triangles of the same orientation, each
 // vertex mapped by `map` before it is stored.
+// Known issue: n is chosen per triangle, so two neighbours with different n meet at
+// T-junctions; after a curved F the gaps there are O(max_edge^2 |F''|), well below a pixel
+// when max_edge is.
 template <class Map>
 void add_subdivided(MeshBuilder& out, const Vec3& a, const Vec3& b, const Vec3& c, int n,
                     const Map& map) {
@@ -419,8 +422,10 @@ class Rasterizer {
       inside = inside && h.z() >= -h.w() && h.z() <= h.w();
     }
     if (!inside) {
-      n = clip_polygon(a.data(), n, b.data(), [](const Eigen::Vector4d& h) { return h.z() + h.w(); });
-      n = clip_polygon(b.data(), n, a.data(), [](const Eigen::Vector4d& h) { return h.w() - h.z(); });
+      n = clip_polygon(a.data(), n, b.data(),
+                       [](const Eigen::Vector4d& h) { return h.z() + h.w(); });
+      n = clip_polygon(b.data(), n, a.data(),
+                       [](const Eigen::Vector4d& h) { return h.w() - h.z(); });
     }
     ScreenPolygon out;
     for (int i = 0; i < n; ++i) {
@@ -456,8 +461,7 @@ class Rasterizer {
 
  private:
   void draw_triangle(const ScreenVertex& a, const ScreenVertex& b, const ScreenVertex& c, int f,
-                     int row0, int row1, std::vector<double>& depth,
-                     std::vector<int>& face) const {
+                     int row0, int row1, std::vector<double>& depth, std::vector<int>& face) const {
     auto edge = [](const ScreenVertex& p, const ScreenVertex& q, double x, double y) {
       return (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x);
     };
@@ -576,7 +580,8 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
                 ": must be a finite number > 0");
   MeshBuilder out;
   // Original vertices first, so triangles clear of the box keep their indices.
-  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) out.vertices.push_back(mesh.V.row(v).transpose());
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+    out.vertices.push_back(mesh.V.row(v).transpose());
   const Vec3 half = box.half_extents;
   auto deform = [&](const Vec3& q) { return box.to_object(forward_local(q)); };
   auto keep = [&](const Vec3& q) { return box.to_object(q); };

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -30,9 +31,17 @@ constexpr std::uint64_t kMemoryBudgetBytes = std::uint64_t(4) << 30;
 // Deformer types of DESIGN.md that this release does not build yet, for a helpful message.
 constexpr const char* kLaterDeformers[] = {"peel", "incision", "box_cut", "points"};
 
+// Integers as integers, anything else in the shortest form that reads back exactly.
 std::string format_number(double x) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.15g", x);
+  if (x == std::round(x) && std::abs(x) < 1e7) {
+    std::snprintf(buf, sizeof buf, "%.0f", x);
+    return buf;
+  }
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+    if (std::strtod(buf, nullptr) == x) break;
+  }
   return buf;
 }
 
@@ -56,6 +65,7 @@ struct Interval {
   double lo = -std::numeric_limits<double>::infinity();
   double hi = std::numeric_limits<double>::infinity();
   bool lo_open = false, hi_open = false;
+  bool hi_is_sanity_limit = false;  // hi only refuses absurd values: say "> lo" first
 
   bool contains(double x) const {
     return std::isfinite(x) && (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
@@ -63,7 +73,10 @@ struct Interval {
   // `kind` with its article: "a number", "an integer".
   std::string describe(const std::string& kind) const {
     bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-    if (!has_lo && !has_hi) return "must be " + kind + " (finite)";
+    if (!has_lo && !has_hi) return "must be " + kind + "; any finite value";
+    if (hi_is_sanity_limit)
+      return std::string("must be ") + (lo_open ? "> " : ">= ") + format_number(lo) +
+             " (and at most " + format_number(hi) + ")";
     if (!has_hi) return std::string("must be ") + (lo_open ? "> " : ">= ") + format_number(lo);
     if (!has_lo) return std::string("must be ") + (hi_open ? "< " : "<= ") + format_number(hi);
     return "must be " + kind + " in " + (lo_open ? "(" : "[") + format_number(lo) + ", " +
@@ -88,7 +101,7 @@ class SceneReader {
   }
 
   void require_object(const json& j, const std::string& field, const std::string& hint) const {
-    if (!j.is_object()) fail(field, j, "must be a JSON object " + hint);
+    if (!j.is_object()) fail(field, j, "must be a JSON object like " + hint);
   }
 
   // Unknown keys are errors (they are usually typos) that list the allowed keys.
@@ -200,7 +213,7 @@ Box read_centred(const SceneReader& r, const json& j, const std::string& field) 
   box.centre = r.vec3(r.required(j, field, centre_key, kBoxForms), child(field, centre_key),
                       closed(-kMaxCoordinate, kMaxCoordinate));
   box.half_extents = r.vec3(r.required(j, field, "half_extents", kBoxForms),
-                            child(field, "half_extents"), {0.0, kMaxCoordinate, true, false});
+                            child(field, "half_extents"), {0.0, kMaxCoordinate, true, false, true});
   if (j.contains("rotation_deg"))
     box.rotation = rotation_from_euler_deg(r.vec3(j["rotation_deg"], child(field, "rotation_deg"),
                                                   closed(-kMaxRotationDeg, kMaxRotationDeg)));
@@ -222,8 +235,7 @@ DeformerSpec read_deformer(const SceneReader& r, const json& j, const std::strin
            "must be one deformer object; lists of deformers are not available in this version");
   r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
   r.check_keys(j, field, {"type", "axis", "angle_deg"});
-  const std::string hint_type = "give one of twist, bend";
-  const json& type = r.required(j, field, "type", hint_type);
+  const json& type = r.required(j, field, "type", "give one of twist, bend");
   std::string note;
   for (const char* later : kLaterDeformers)
     if (type == later) note = " (" + std::string(later) + " is not available in this version)";
@@ -305,36 +317,47 @@ bool boxes_overlap(const Box& a, const Box& b) {
   return true;
 }
 
+std::string format_vector(const Eigen::Vector3d& x) {
+  std::string out = "[";
+  for (int a = 0; a < 3; ++a) (out += a ? ", " : "") += format_number(x[a]);
+  return out + "]";
+}
+
 std::string describe_box(const Box& b) {
-  auto v = [](const Eigen::Vector3d& x) {
-    return "[" + format_number(x.x()) + ", " + format_number(x.y()) + ", " + format_number(x.z()) +
-           "]";
-  };
-  return "centre " + v(b.centre) + ", half_extents " + v(b.half_extents);
+  return "centre " + format_vector(b.centre) + ", half_extents " + format_vector(b.half_extents);
+}
+
+// The keys of a box that place it, for messages about its placement.
+json geometry_keys(const json& box) {
+  json out = json::object();
+  for (const char* key : {"min", "max", "centre", "center", "half_extents", "rotation_deg"})
+    if (box.contains(key)) out[key] = box[key];
+  return out;
 }
 
 void check_overlaps(const SceneReader& r, const json& boxes, const std::vector<BoxSpec>& specs) {
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t k = 0; k < i; ++k)
       if (boxes_overlap(specs[k].box, specs[i].box))
-        r.fail(element("boxes", i), boxes[i],
+        r.fail(element("boxes", i), geometry_keys(boxes[i]),
                "overlaps " + element("boxes", k) + " (" + describe_box(specs[k].box) + " vs " +
                    describe_box(specs[i].box) + "); boxes must not overlap (touching is allowed)");
 }
 
-// Upper estimates of the textures of one box, in bytes: the distance grid as bake_distance_grid
-// lays it out (resolution voxels along the longest side, the others rounded up, plus the margin
-// on both sides), the deformation texture as at most resolution^3 texels of 4 floats (F(box)
-// is not known before the deformer runs; a cube is the worst case).
+// Sizes of the textures of one box, in bytes, before anything is allocated. The distance grid
+// as bake_distance_grid lays it out: cubic voxels of side 2 max(h) / resolution over the box grown
+// by margin_voxels on every side, rounded up to whole voxels. The deformation texture covers
+// F(box), unknown before the deformer runs: at most resolution^3 texels of 4 floats (a cube is
+// the worst case for `resolution` texels along the longest side).
 std::uint64_t distance_grid_bytes(const BoxSpec& b) {
   const Eigen::Vector3d& h = b.box.half_extents;
-  double spacing = h.maxCoeff() / b.implicit.resolution;
-  std::uint64_t margin = static_cast<std::uint64_t>(std::ceil(b.implicit.margin_voxels));
+  double spacing = 2.0 * h.maxCoeff() / b.implicit.resolution;
   std::uint64_t voxels = 1;
-  for (int a = 0; a < 3; ++a)
+  for (int a = 0; a < 3; ++a) {
+    double extent = 2.0 * (h[a] + b.implicit.margin_voxels * spacing);
     voxels *=
-        std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(h[a] / spacing - 1e-9))) +
-        2 * margin;
+        std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(extent / spacing - 1e-9)));
+  }
   return voxels * sizeof(float);
 }
 
@@ -372,7 +395,8 @@ void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs
   r.fail(field, value,
          "the textures of all boxes would take " + gib(grids + textures) + " (distance grids " +
              gib(grids) + ", deformation textures " + gib(textures) +
-             "), more than the budget of " + gib(kMemoryBudgetBytes) + "; lower this resolution");
+             "), more than the budget of " + gib(kMemoryBudgetBytes) +
+             "; lower this resolution (the largest of them)");
 }
 
 std::vector<BoxSpec> read_boxes(const SceneReader& r, const json& j) {
@@ -394,6 +418,10 @@ Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::p
     return load_camera(path.string());
   } catch (const Error& e) {
     throw Error(r.file() + ": camera = " + show(j) + ": " + e.what());
+  } catch (const json::exception& e) {
+    // load_camera lets numbers beyond double (out_of_range) through; they are not valid JSON.
+    throw Error(r.file() + ": camera = " + show(j) + ": " + path.string() +
+                ": not valid JSON: " + e.what());
   }
 }
 
@@ -446,7 +474,9 @@ Scene load_scene(const std::filesystem::path& path) {
   scene.mesh = r.existing_file(
       r.required(root, "", "mesh", "give the mesh file, relative to the scene file"), "mesh",
       folder);
-  scene.boxes = read_boxes(r, r.required(root, "", "boxes", "give a list of 1 to 16 boxes"));
+  scene.boxes = read_boxes(
+      r,
+      r.required(root, "", "boxes", "give a list of 1 to " + std::to_string(kMaxBoxes) + " boxes"));
   if (root.contains("camera")) scene.camera = read_camera(r, root["camera"], folder);
   if (root.contains("render")) scene.render = read_render(r, root["render"]);
   return scene;

@@ -40,6 +40,7 @@ class SceneFolder : public ::testing::Environment {
         "cameras/front.json",
         R"({"eye": [0, 0, 5], "target": [0, 0, 0], "fov_y_deg": 30, "width": 800, "height": 600})");
     write("cameras/degenerate.json", R"({"eye": [1, 2, 3], "target": [1, 2, 3]})");
+    write("cameras/overflow.json", R"({"eye": [1e400, 2, 3], "target": [0, 0, 0]})");
   }
   void TearDown() override { fs::remove_all(path); }
 
@@ -325,6 +326,21 @@ TEST(Scene, FlatBoxAtFullResolutionFitsTheBudget) {
   EXPECT_EQ(load_json("flat.json", j).boxes[0].implicit.resolution, 1024);
 }
 
+#ifdef RAYWARP_SOURCE_DIR
+TEST(Scene, ShippedExamplesLoad) {
+  int loaded = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(RAYWARP_SOURCE_DIR) / "examples")) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    Scene s = load_scene(entry.path());
+    EXPECT_FALSE(s.boxes.empty());
+    EXPECT_TRUE(fs::exists(s.mesh));
+    ++loaded;
+  }
+  EXPECT_GT(loaded, 0);
+}
+#endif
+
 // ---- Bad inputs: each message starts with the scene file and names the field and the value.
 
 struct BadCase {
@@ -332,6 +348,9 @@ struct BadCase {
   std::function<std::string()> scene;  // the scene file's text
   std::vector<std::string> expected;   // substrings of the message; {dir} = the scene folder
 };
+
+// Names the case in test output instead of dumping its bytes.
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
 
 std::string edit(const std::function<void(json&)>& change) {
   json j = base_scene();
@@ -436,7 +455,7 @@ std::vector<BadCase> bad_cases() {
        {": boxes[0].deformer.angle_deg = 360: must be a number in (-360, 360)"}},
       {"TwistAngleString",
        [] { return edit([](json& j) { box0(j)["deformer"]["angle_deg"] = "90"; }); },
-       {": boxes[0].deformer.angle_deg = \"90\": must be a number"}},
+       {": boxes[0].deformer.angle_deg = \"90\": must be a number; any finite value"}},
       {"UnknownKeyListsAllowed",
        [] {
          return edit([](json& j) {
@@ -491,7 +510,9 @@ std::vector<BadCase> bad_cases() {
            j["boxes"].push_back(second);
          });
        },
-       {": boxes[1] = {", "overlaps boxes[0]", "boxes must not overlap"}},
+       {": boxes[1] = {\"max\":[3,4,2],\"min\":[0.5,0,-2]}: overlaps boxes[0] (centre [0, 2, 0], "
+        "half_extents [1, 2, 2] vs centre [1.75, 2, 0], half_extents [1.25, 2, 2]); boxes must not "
+        "overlap"}},
       {"CameraFileMissing",
        [] { return edit([](json& j) { j["camera"] = "cameras/nope.json"; }); },
        {": camera = \"cameras/nope.json\": no such file: {dir}/cameras/nope.json"}},
@@ -506,6 +527,9 @@ std::vector<BadCase> bad_cases() {
       {"CameraFileEyeEqualsTarget",
        [] { return edit([](json& j) { j["camera"] = "cameras/degenerate.json"; }); },
        {": camera = \"cameras/degenerate.json\": ", "target: equals eye [1,2,3]"}},
+      {"CameraFileNumberBeyondDouble",
+       [] { return edit([](json& j) { j["camera"] = "cameras/overflow.json"; }); },
+       {": camera = \"cameras/overflow.json\": {dir}/cameras/overflow.json: not valid JSON: "}},
       {"RenderWidth0",
        [] { return edit([](json& j) {
               j["render"] = {{"width", 0}};

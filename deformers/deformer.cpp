@@ -1,0 +1,151 @@
+#include "deformers/deformer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "library/error.h"
+
+namespace raywarp {
+
+char axis_name(Axis a) {
+  switch (a) {
+    case Axis::X:
+      return 'x';
+    case Axis::Y:
+      return 'y';
+    case Axis::Z:
+      break;
+  }
+  return 'z';
+}
+
+FoldReport measure_folds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                         int samples_per_axis) {
+  if (samples_per_axis < 1)
+    throw Error("measure_folds: samples_per_axis = " + std::to_string(samples_per_axis) +
+                ": must be >= 1");
+  const int n = samples_per_axis;
+  const Eigen::Vector3d cell = 2.0 * half_extents / n;
+  long folded = 0;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3d p = -half_extents + cell.cwiseProduct(Eigen::Vector3d(i, j, k) +
+                                                                    Eigen::Vector3d::Constant(0.5));
+        if (deformer.jacobian(p).determinant() <= 0.0) ++folded;
+      }
+  FoldReport report;
+  report.box_volume = 8.0 * half_extents.prod();
+  report.folded_volume = static_cast<double>(folded) * cell.prod();
+  return report;
+}
+
+namespace {
+
+// Bounds of F over an (n + 1) x (n + 1) lattice of nodes on each of the six faces of the box
+// (edges and corners included).
+Eigen::AlignedBox3d face_lattice_bounds(const Deformer& deformer, const Eigen::Vector3d& h, int n) {
+  Eigen::AlignedBox3d bounds;
+  for (int normal = 0; normal < 3; ++normal) {
+    const int u = (normal + 1) % 3, v = (normal + 2) % 3;
+    for (double side : {-1.0, 1.0})
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+          Eigen::Vector3d p;
+          p[normal] = side * h[normal];
+          p[u] = h[u] * (2.0 * i / n - 1.0);
+          p[v] = h[v] * (2.0 * j / n - 1.0);
+          bounds.extend(deformer.forward(p));
+        }
+  }
+  return bounds;
+}
+
+}  // namespace
+
+// F is continuous, so the boundary of F(box) lies in F(boundary of box) and the extremes of F(box)
+// are reached on the faces. Between lattice nodes F bulges by up to (1/8) spacing^2 max|F''|
+// (a chord's sagitta), which grows with the angle; worse, a twist of many turns can alias with the
+// lattice (16 turns over 64 intervals visit 4 angles per edge: a square section's corners then
+// reach 0.71 of their radius).
+// So the lattice is refined by halves until the bounds grow by less than 1e-4 of their diagonal,
+// which leaves about a third of that unseen (the sagitta shrinks 4x per halving), or until 1024
+// intervals. A lattice that aliases at two successive levels (64 whole turns) still fools it; the
+// one-texel pad of bake_deformation absorbs the rest.
+Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                    double pad) {
+  constexpr int kFirstIntervals = 64, kMaxIntervals = 1024;
+  Eigen::AlignedBox3d bounds = face_lattice_bounds(deformer, half_extents, kFirstIntervals);
+  for (int n = 2 * kFirstIntervals; n <= kMaxIntervals; n *= 2) {
+    const Eigen::AlignedBox3d finer = face_lattice_bounds(deformer, half_extents, n);
+    const double growth =
+        std::max((bounds.min() - finer.min()).maxCoeff(), (finer.max() - bounds.max()).maxCoeff());
+    bounds.extend(finer);
+    if (growth <= 1e-4 * bounds.diagonal().norm()) break;
+  }
+  bounds.min().array() -= pad;
+  bounds.max().array() += pad;
+  return bounds;
+}
+
+DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                    int resolution) {
+  if (resolution < 1)
+    throw Error("bake_deformation: resolution = " + std::to_string(resolution) + ": must be >= 1");
+  const auto start = std::chrono::steady_clock::now();
+  Eigen::AlignedBox3d bounds = deformed_bounds(deformer, half_extents);
+  const double pad = bounds.sizes().maxCoeff() / resolution;
+  bounds.min().array() -= pad;
+  bounds.max().array() += pad;
+
+  DeformationTexture texture;
+  Grid3<Eigen::Vector4f>& grid = texture.grid;
+  grid = make_grid_over(bounds.min(), bounds.max(), resolution, Eigen::Vector4f::Zero().eval());
+
+  // Texels go by z-slices to the threads; a slice is written by one thread only.
+  std::atomic<int> next_slice{0};
+  std::atomic<bool> all_finite{true};
+  auto bake_slices = [&]() {
+    for (int k = next_slice++; k < grid.dims.z(); k = next_slice++)
+      for (int j = 0; j < grid.dims.y(); ++j)
+        for (int i = 0; i < grid.dims.x(); ++i) {
+          const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
+          const Eigen::Vector3d p = deformer.inverse(p_def);
+          const bool inside = (p.cwiseAbs().array() <= half_extents.array()).all();
+          const Eigen::Vector4f texel((p - p_def).x(), (p - p_def).y(), (p - p_def).z(),
+                                      inside ? 1.0f : 0.0f);
+          if (!texel.allFinite()) all_finite = false;
+          grid.at(i, j, k) = texel;
+        }
+  };
+  const int threads =
+      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, grid.dims.z());
+  std::vector<std::thread> workers;
+  std::vector<std::exception_ptr> errors(threads);
+  for (int t = 0; t < threads; ++t)
+    workers.emplace_back([&, t]() {
+      try {
+        bake_slices();
+      } catch (...) {
+        errors[t] = std::current_exception();
+        next_slice = grid.dims.z();
+      }
+    });
+  for (std::thread& worker : workers) worker.join();
+  for (const std::exception_ptr& error : errors)
+    if (error) std::rethrow_exception(error);
+  if (!all_finite)
+    throw Error("bake_deformation: " + deformer.describe() +
+                ": the inverse displacement is not finite at some texels");
+
+  texture.bake_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return texture;
+}
+
+}  // namespace raywarp

@@ -1,0 +1,164 @@
+// The `raywarp` command on bad input: each case must exit non-zero, print a message naming
+// the file, the field and what is allowed, and leave no output file behind.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result run(const std::string& args) {
+  std::string cmd = std::string(RAYWARP_BINARY) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+  int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device rd;
+    dir = fs::temp_directory_path() / ("raywarp_cli_" + std::to_string(rd()));
+    fs::create_directories(dir);
+    // A small closed mesh: an octahedron.
+    std::ofstream(dir / "m.obj")
+        << "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n"
+           "f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+    std::ofstream(dir / "cam.json")
+        << R"({"eye": [0, 0, 5], "target": [0, 0, 0], "fov_y_deg": 40, "width": 32, "height": 32})";
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  // Writes a scene whose box and deformer parts can be replaced, renders it, and checks the
+  // failure.
+  void expect_failure(const std::string& scene_text, const std::string& extra_args,
+                      const std::vector<std::string>& needles) {
+    std::ofstream(dir / "s.json") << scene_text;
+    fs::path out = dir / "out.png";
+    Result r = run((dir / "s.json").string() + " -o " + out.string() + " " + extra_args);
+    EXPECT_NE(r.code, 0) << r.output;
+    for (const auto& n : needles)
+      EXPECT_NE(r.output.find(n), std::string::npos) << "missing '" << n << "' in: " << r.output;
+    EXPECT_FALSE(fs::exists(out)) << "an output file was left behind";
+    for (const auto& e : fs::directory_iterator(dir))
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  }
+
+  Result run(const std::string& args) { return ::run("render " + args); }
+
+  static std::string scene(
+      const std::string& box = R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+      const std::string& deformer = R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+      const std::string& rest = R"("camera": "cam.json")", const std::string& mesh = "m.obj") {
+    return R"({"mesh": ")" + mesh + R"(", "boxes": [{)" + box + R"(, "deformer": )" + deformer +
+           R"(, "implicit": {"resolution": 16}, "deformation": {"resolution": 16}}], )" + rest +
+           "}";
+  }
+  fs::path dir;
+};
+
+TEST_F(CliTest, HelpListsOptions) {
+  Result r = ::run("--help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.output.find("render"), std::string::npos);
+  r = ::run("render --help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* opt : {"--depth", "--mask", "--camera", "--width", "--height", "--output"})
+    EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
+}
+
+TEST_F(CliTest, ValidSceneRendersAllOutputs) {
+  std::ofstream(dir / "s.json") << scene();
+  Result r = run((dir / "s.json").string() + " -o " + (dir / "sub/out.png").string() + " --depth " +
+                 (dir / "d.f32").string() + " --mask " + (dir / "m.png").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "sub/out.png"));
+  EXPECT_EQ(fs::file_size(dir / "d.f32"), 32u * 32u * 4u);
+  EXPECT_TRUE(fs::exists(dir / "d.f32.json"));
+  EXPECT_TRUE(fs::exists(dir / "m.png"));
+}
+
+TEST_F(CliTest, MissingSceneFile) {
+  expect_failure("", "--camera /nonexistent/none.json", {"s.json"});
+}
+TEST_F(CliTest, InvalidJson) { expect_failure("{\"mesh\": ", "", {"s.json", "JSON"}); }
+TEST_F(CliTest, MeshFileMissing) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+                       R"("camera": "cam.json")", "nope.obj"),
+                 "", {"nope.obj"});
+}
+TEST_F(CliTest, MinNotBelowMax) {
+  expect_failure(scene(R"("min": [0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])"), "",
+                 {"boxes[0]", "min"});
+}
+TEST_F(CliTest, NegativeHalfExtents) {
+  expect_failure(scene(R"("centre": [0, 0, 0], "half_extents": [1, 1, -1])"), "",
+                 {"boxes[0].half_extents[2]", "-1"});
+}
+TEST_F(CliTest, UnknownDeformer) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twsit", "axis": "y", "angle_deg": 90})"),
+                 "", {"boxes[0].deformer.type", "twsit", "twist"});
+}
+TEST_F(CliTest, BadAxis) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "w", "angle_deg": 90})"),
+                 "", {"boxes[0].deformer.axis", "\"w\""});
+}
+TEST_F(CliTest, BendAngleOutOfRange) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "bend", "axis": "z", "angle_deg": 360})"),
+                 "", {"boxes[0].deformer.angle_deg", "360", "(-360, 360)"});
+}
+TEST_F(CliTest, AngleNotANumber) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "angle_deg": "90"})"),
+                 "", {"boxes[0].deformer.angle_deg"});
+}
+TEST_F(CliTest, MisspelledKey) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "anlge_deg": 90})"),
+                 "", {"anlge_deg", "angle_deg"});
+}
+TEST_F(CliTest, NoCamera) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+                       R"("render": {"width": 32, "height": 32})"),
+                 "", {"camera"});
+}
+TEST_F(CliTest, CameraEyeEqualsTarget) {
+  std::ofstream(dir / "bad_cam.json") << R"({"eye": [0, 0, 0], "target": [0, 0, 0]})";
+  expect_failure(scene(), "--camera " + (dir / "bad_cam.json").string(),
+                 {"bad_cam.json", "target"});
+}
+TEST_F(CliTest, WidthOutOfRange) { expect_failure(scene(), "--width 0", {"--width"}); }
+TEST_F(CliTest, RenderWidthInScene) {
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+                       R"("camera": "cam.json", "render": {"width": -4})"),
+                 "", {"render.width", "-4"});
+}
+TEST_F(CliTest, OutputInUnwritablePlace) {
+  std::ofstream(dir / "s.json") << scene();
+  Result r = run((dir / "s.json").string() + " -o /proc/raywarp_cannot_write_here.png");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("raywarp_cannot_write_here.png"), std::string::npos) << r.output;
+}
+
+}  // namespace

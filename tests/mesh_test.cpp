@@ -1,0 +1,263 @@
+// Mesh loading (assimp) and the mesh figures: counts, welding, closedness, orientation.
+#include "library/mesh.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "library/error.h"
+#include "tests/mesh_fixtures.h"
+
+namespace raywarp {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh folder per test, removed afterwards.
+class MeshFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("raywarp_mesh_test_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string write(const std::string& name, const std::string& text) {
+    const fs::path path = dir_ / name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path.string();
+  }
+  fs::path dir_;
+};
+
+// The cube [-1, 1]^3 as six quads, counter-clockwise from outside (OBJ is 1-based).
+const char* kCubeObj = R"(# cube
+v -1 -1 -1
+v 1 -1 -1
+v -1 1 -1
+v 1 1 -1
+v -1 -1 1
+v 1 -1 1
+v -1 1 1
+v 1 1 1
+f 1 3 4 2
+f 5 6 8 7
+f 1 2 6 5
+f 3 7 8 4
+f 1 5 7 3
+f 2 4 8 6
+)";
+
+// The same cube, 12 facets with 3 vertices each and no sharing, as STL has it.
+std::string cube_stl() {
+  const Mesh cube = fixtures::cube(1.0);
+  std::string text = "solid cube\n";
+  for (int f = 0; f < cube.F.rows(); ++f) {
+    const Eigen::Vector3d n =
+        (cube.vertex(f, 1) - cube.vertex(f, 0)).cross(cube.vertex(f, 2) - cube.vertex(f, 0));
+    text += "facet normal " + std::to_string(n.x() / 4) + " " + std::to_string(n.y() / 4) + " " +
+            std::to_string(n.z() / 4) + "\nouter loop\n";
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector3d p = cube.vertex(f, c);
+      text += "vertex " + std::to_string(p.x()) + " " + std::to_string(p.y()) + " " +
+              std::to_string(p.z()) + "\n";
+    }
+    text += "endloop\nendfacet\n";
+  }
+  return text + "endsolid cube\n";
+}
+
+const char* kCubeOff = R"(OFF
+8 6 0
+-1 -1 -1
+1 -1 -1
+-1 1 -1
+1 1 -1
+-1 -1 1
+1 -1 1
+-1 1 1
+1 1 1
+4 0 2 3 1
+4 4 5 7 6
+4 0 1 5 4
+4 2 6 7 3
+4 0 4 6 2
+4 1 3 7 5
+)";
+
+void expect_closed_cube(const Mesh& mesh) {
+  const MeshStats stats = mesh_stats(mesh);
+  EXPECT_EQ(stats.vertices, 8);
+  EXPECT_EQ(stats.faces, 12);
+  EXPECT_EQ(stats.boundary_edges, 0);
+  EXPECT_EQ(stats.nonmanifold_edges, 0);
+  EXPECT_EQ(stats.degenerate_faces, 0);
+  EXPECT_TRUE(stats.closed());
+  EXPECT_TRUE(stats.bounds.min().isApprox(Eigen::Vector3d(-1, -1, -1)));
+  EXPECT_TRUE(stats.bounds.max().isApprox(Eigen::Vector3d(1, 1, 1)));
+  // Orientation survives loading and triangulation: counter-clockwise from outside gives +8.
+  EXPECT_NEAR(fixtures::signed_volume(mesh), 8.0, 1e-9);
+}
+
+TEST(Mesh, BunnyCountsAndBounds) {
+  const Mesh bunny = load_mesh(RAYWARP_SOURCE_DIR "/examples/meshes/bunny.ply");
+  const MeshStats stats = mesh_stats(bunny);
+  EXPECT_EQ(stats.vertices, 1839);  // the PLY header's counts: no duplicates to weld
+  EXPECT_EQ(stats.faces, 3674);
+  EXPECT_FALSE(stats.bounds.isEmpty());
+  EXPECT_GT(fixtures::signed_volume(bunny), 0.0);  // outward oriented
+  const std::string line = describe(stats);
+  EXPECT_NE(line.find("1839 vertices, 3674 triangles"), std::string::npos) << line;
+  EXPECT_EQ(line.find('\n'), std::string::npos);
+}
+
+TEST_F(MeshFiles, ObjCubeIsWeldedTriangulatedAndClosed) {
+  expect_closed_cube(load_mesh(write("cube.obj", kCubeObj)));
+}
+
+TEST_F(MeshFiles, StlCubeIsWeldedAndClosed) {
+  // 36 STL corners, each with its facet's normal: only positions say which are the same vertex.
+  expect_closed_cube(load_mesh(write("cube.stl", cube_stl())));
+}
+
+TEST_F(MeshFiles, OffCubeIsClosed) { expect_closed_cube(load_mesh(write("cube.off", kCubeOff))); }
+
+TEST_F(MeshFiles, ObjGroupsAreMergedIntoOneSurface) {
+  // Two objects sharing the cube's edges by position only: merged and welded, closed.
+  std::string text = kCubeObj;
+  text.insert(text.find("f 1 3 4 2"), "o bottom\n");
+  text.insert(text.find("f 1 2 6 5"), "o sides\n");
+  expect_closed_cube(load_mesh(write("groups.obj", text)));
+}
+
+TEST_F(MeshFiles, GltfNodeTransformsAreApplied) {
+  // One triangle instanced by two nodes: translated by (10, 0, 0), and mirrored in x (which
+  // must not turn it clockwise). Buffer: 3 float positions then 3 uint16 indices (+2 pad).
+  const char* kBuffer =  // base64 of (0,0,0), (1,0,0), (0,1,0), then 0 1 2
+      "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA=";
+  const std::string gltf = std::string(R"({
+  "asset": {"version": "2.0"},
+  "scene": 0,
+  "scenes": [{"nodes": [0, 1]}],
+  "nodes": [{"mesh": 0, "translation": [10, 0, 0]}, {"mesh": 0, "scale": [-1, 1, 1]}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "buffers": [{"byteLength": 44, "uri": "data:application/octet-stream;base64,)") +
+                           kBuffer + R"("}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                  {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+     "min": [0, 0, 0], "max": [1, 1, 0]},
+    {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]
+})";
+  const Mesh mesh = load_mesh(write("triangle.gltf", gltf));
+  const MeshStats stats = mesh_stats(mesh);
+  ASSERT_EQ(stats.faces, 2);
+  EXPECT_EQ(stats.vertices, 6);  // no corner of one instance coincides with the other's
+  EXPECT_NEAR(stats.bounds.min().x(), -1.0, 1e-12);
+  EXPECT_NEAR(stats.bounds.max().x(), 11.0, 1e-12);
+  for (int f = 0; f < 2; ++f) {
+    const Eigen::Vector3d n =
+        (mesh.vertex(f, 1) - mesh.vertex(f, 0)).cross(mesh.vertex(f, 2) - mesh.vertex(f, 0));
+    EXPECT_GT(n.z(), 0.0) << "triangle " << f << " was turned over";
+  }
+}
+
+TEST_F(MeshFiles, OpenCubeHasBoundaryEdges) {
+  std::string text = kCubeObj;
+  text.erase(text.find("f 2 4 8 6"));  // the x = +1 face
+  const MeshStats stats = mesh_stats(load_mesh(write("open.obj", text)));
+  EXPECT_EQ(stats.faces, 10);
+  EXPECT_EQ(stats.boundary_edges, 4);
+  EXPECT_EQ(stats.nonmanifold_edges, 0);
+  EXPECT_FALSE(stats.closed());
+  const std::string line = describe(stats);
+  EXPECT_NE(line.find("open (4 boundary edges, 0 non-manifold)"), std::string::npos) << line;
+}
+
+TEST_F(MeshFiles, MissingFileNamesThePath) {
+  const std::string path = (dir_ / "no_such_mesh.ply").string();
+  try {
+    load_mesh(path);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(MeshFiles, GarbageFileNamesThePath) {
+  for (const char* name : {"garbage.ply", "garbage.stl", "garbage.obj", "garbage.off"}) {
+    const std::string path = write(name, "\x01\x02 this is not a mesh \xff\xfe\n");
+    try {
+      load_mesh(path);
+      FAIL() << name << ": no error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST_F(MeshFiles, PointsOnlyHasNoTriangles) {
+  const std::string path = write("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n");
+  try {
+    load_mesh(path);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no triangles"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Mesh, NonManifoldAndDegenerateEdgesAreCounted) {
+  // Three triangles on the edge (0, 1), and one zero-area triangle (collinear corners).
+  Mesh mesh;
+  mesh.V.resize(6, 3);
+  mesh.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 2, 0, 0;
+  mesh.F.resize(4, 3);
+  mesh.F << 0, 1, 2, 1, 0, 3, 0, 1, 4, 0, 1, 5;
+  const MeshStats stats = mesh_stats(mesh);
+  EXPECT_EQ(stats.nonmanifold_edges, 1);  // (0, 1) four times
+  EXPECT_EQ(stats.degenerate_faces, 1);   // (0, 1, 5)
+  // Every other edge once: (1,2) (2,0) (0,3) (3,1) (1,4) (4,0) (1,5) (5,0).
+  EXPECT_EQ(stats.boundary_edges, 8);
+  EXPECT_FALSE(stats.closed());
+}
+
+TEST(Mesh, VertexNormalsOfASphereAreRadial) {
+  // A triangle inscribed in a sphere of radius r has its normal along the axis of its
+  // circumcircle (radius rho), at angle asin(rho / r) from the radius at each of its corners.
+  // An area-weighted mean of such normals stays in that cone: the bound is the widest cone.
+  const double r = 2.0;
+  const Mesh sphere = fixtures::icosphere(r, 3);
+  double cone = 0;
+  for (int f = 0; f < sphere.F.rows(); ++f) {
+    const Eigen::Vector3d a = sphere.vertex(f, 0), b = sphere.vertex(f, 1), c = sphere.vertex(f, 2);
+    const double rho =
+        (b - c).norm() * (c - a).norm() * (a - b).norm() / (2.0 * (b - a).cross(c - a).norm());
+    cone = std::max(cone, std::asin(rho / r));
+  }
+  const auto N = vertex_normals(sphere);
+  for (int v = 0; v < sphere.V.rows(); ++v) {
+    const Eigen::RowVector3d radial = sphere.V.row(v).normalized();
+    EXPECT_NEAR(N.row(v).norm(), 1.0, 1e-12);
+    EXPECT_GE(N.row(v).dot(radial), std::cos(cone) - 1e-12) << "vertex " << v;
+  }
+}
+
+TEST(Mesh, VertexNormalsOfAFlatSquareAndAnIsolatedVertex) {
+  Mesh mesh;
+  mesh.V.resize(5, 3);
+  mesh.V << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 5, 5, 5;
+  mesh.F.resize(2, 3);
+  mesh.F << 0, 1, 2, 0, 2, 3;
+  const auto N = vertex_normals(mesh);
+  for (int v = 0; v < 4; ++v) EXPECT_EQ(N.row(v), Eigen::RowVector3d(0, 0, 1));
+  EXPECT_EQ(N.row(4), Eigen::RowVector3d(0, 0, 0));
+}
+
+}  // namespace
+}  // namespace raywarp
