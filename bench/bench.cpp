@@ -35,7 +35,8 @@ template <class F>
 double time_ms(F&& f) {
   auto start = std::chrono::steady_clock::now();
   f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 struct Row {
@@ -60,10 +61,14 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--runs") runs = std::max(1, std::stoi(next()));
-    else if (a == "--frames") frames = std::max(1, std::stoi(next()));
-    else if (a == "--size") size = std::clamp(std::stoi(next()), 16, 4096);
-    else if (a == "--out") out = next();
+    if (a == "--runs")
+      runs = std::max(1, std::stoi(next()));
+    else if (a == "--frames")
+      frames = std::max(1, std::stoi(next()));
+    else if (a == "--size")
+      size = std::clamp(std::stoi(next()), 16, 4096);
+    else if (a == "--out")
+      out = next();
     else {
       std::cerr << "usage: raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md]\n";
       return a == "--help" || a == "-h" ? 0 : 2;
@@ -82,8 +87,10 @@ int main(int argc, char** argv) {
     for (const std::string kind : {"twist", "bend"}) {
       Box box;
       if (kind == "twist") {
-        Eigen::Vector3d bmin(lo.x() - 0.02 * ext.x(), lo.y() + 0.2 * ext.y(), lo.z() - 0.02 * ext.z());
-        Eigen::Vector3d bmax(hi.x() + 0.02 * ext.x(), lo.y() + 0.8 * ext.y(), hi.z() + 0.02 * ext.z());
+        Eigen::Vector3d bmin(lo.x() - 0.02 * ext.x(), lo.y() + 0.2 * ext.y(),
+                             lo.z() - 0.02 * ext.z());
+        Eigen::Vector3d bmax(hi.x() + 0.02 * ext.x(), lo.y() + 0.8 * ext.y(),
+                             hi.z() + 0.02 * ext.z());
         box.centre = 0.5 * (bmin + bmax);
         box.half_extents = 0.5 * (bmax - bmin);
       } else {
@@ -99,7 +106,8 @@ int main(int argc, char** argv) {
       std::vector<double> sdf_t, def_t, frame_t;
       for (int r = 0; r < runs; ++r) {
         sdf_t.push_back(time_ms([&] { tex.sdf = bake_distance_grid(mesh, box, spec); }));
-        def_t.push_back(time_ms([&] { tex.deformation = bake_deformation(*deformer, box.half_extents, def_res); }));
+        def_t.push_back(time_ms(
+            [&] { tex.deformation = bake_deformation(*deformer, box.half_extents, def_res); }));
       }
       gl::Renderer renderer;
       renderer.set_mesh(mesh);
@@ -119,26 +127,30 @@ int main(int argc, char** argv) {
         renderer.render(cam, size, size, settings, &fs);
         frame_t.push_back(fs.milliseconds);
       }
-      rows.push_back({name, deformer->describe(), static_cast<long>(stats.faces), spec.resolution, def_res,
-                      median(sdf_t), median(def_t), median(frame_t),
-                      tex.sdf.grid.size() * 4.0 / (1 << 20), tex.deformation.grid.size() * 16.0 / (1 << 20)});
+      rows.push_back({name, deformer->describe(), static_cast<long>(stats.faces), spec.resolution,
+                      def_res, median(sdf_t), median(def_t), median(frame_t),
+                      tex.sdf.grid.size() * 4.0 / (1 << 20),
+                      tex.deformation.grid.size() * 16.0 / (1 << 20)});
       const Row& r = rows.back();
-      std::fprintf(stderr, "  %-22s sdf %.0f ms  D %.0f ms  frame %.1f ms\n", r.deformer.c_str(), r.sdf_ms,
-                   r.def_ms, r.frame_ms);
+      std::fprintf(stderr, "  %-22s sdf %.0f ms  D %.0f ms  frame %.1f ms\n", r.deformer.c_str(),
+                   r.sdf_ms, r.def_ms, r.frame_ms);
     }
   }
   std::ostringstream table;
-  table << "Measured by `build/raywarp_bench --runs " << runs << " --frames " << frames << " --size " << size
-        << "` on " << context->description() << ".\n"
-        << "Medians: distance grid bake and deformation bake over " << runs << " runs, frame time over "
-        << frames << " frames at " << size << "x" << size << " (both passes, to glFinish).\n\n"
-        << "| mesh | triangles | deformer | SDF res | SDF bake ms | SDF MiB | D res | D bake ms | D MiB | frame ms |\n"
+  table << "Measured by `build/raywarp_bench --runs " << runs << " --frames " << frames
+        << " --size " << size << "` on " << context->description() << ".\n"
+        << "Medians: distance grid bake and deformation bake over " << runs
+        << " runs, frame time over " << frames << " frames at " << size << "x" << size
+        << " (both passes, to glFinish).\n\n"
+        << "| mesh | triangles | deformer | SDF res | SDF bake ms | SDF MiB | D res | D bake ms | "
+           "D MiB | frame ms |\n"
         << "| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   char line[512];
   for (const auto& r : rows) {
-    std::snprintf(line, sizeof line, "| %s | %ld | %s | %d | %.0f | %.1f | %d | %.0f | %.1f | %.1f |\n",
-                  r.mesh.c_str(), r.triangles, r.deformer.c_str(), r.sdf_res, r.sdf_ms, r.sdf_mib, r.def_res,
-                  r.def_ms, r.def_mib, r.frame_ms);
+    std::snprintf(line, sizeof line,
+                  "| %s | %ld | %s | %d | %.0f | %.1f | %d | %.0f | %.1f | %.1f |\n",
+                  r.mesh.c_str(), r.triangles, r.deformer.c_str(), r.sdf_res, r.sdf_ms, r.sdf_mib,
+                  r.def_res, r.def_ms, r.def_mib, r.frame_ms);
     table << line;
   }
   std::cout << table.str();

@@ -117,8 +117,8 @@ DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vecto
           const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
           const Eigen::Vector3d p = deformer.inverse(p_def);
           const bool inside = (p.cwiseAbs().array() <= half_extents.array()).all();
-          const Eigen::Vector4f texel((p - p_def).x(), (p - p_def).y(), (p - p_def).z(),
-                                      inside ? 1.0f : 0.0f);
+          Eigen::Vector4f texel;
+          texel << (p - p_def).cast<float>(), inside ? 1.0f : 0.0f;
           if (!texel.allFinite()) all_finite = false;
           grid.at(i, j, k) = texel;
         }

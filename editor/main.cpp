@@ -58,11 +58,12 @@ int run_render(const RenderOptions& opt) {
   if (!opt.depth.empty()) {
     ensure_parent(opt.depth);
     write_depth_f32(opt.depth, image);
-    nlohmann::json side = {{"width", size.x()},
-                           {"height", size.y()},
-                           {"format", "float32 little-endian, row-major, row 0 = top"},
-                           {"depth", "linear eye depth dot(p - eye, normalize(target - eye)); inf = empty"},
-                           {"camera", camera_to_json(camera)}};
+    nlohmann::json side = {
+        {"width", size.x()},
+        {"height", size.y()},
+        {"format", "float32 little-endian, row-major, row 0 = top"},
+        {"depth", "linear eye depth dot(p - eye, normalize(target - eye)); inf = empty"},
+        {"camera", camera_to_json(camera)}};
     std::string text = side.dump(2) + "\n";
     write_file_atomic(opt.depth + ".json", text.data(), text.size());
     std::cerr << "wrote " << opt.depth << " and " << opt.depth << ".json\n";
@@ -94,12 +95,15 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   RenderOptions ropt;
-  auto* render = app.add_subcommand("render", "Render a scene file to a PNG (and optionally depth and mask)");
+  auto* render =
+      app.add_subcommand("render", "Render a scene file to a PNG (and optionally depth and mask)");
   render->add_option("scene", ropt.scene, "Scene file (JSON, see docs/scene.md)")->required();
-  render->add_option("-o,--output", ropt.output, "Colour image to write (PNG, 8-bit sRGB)")->required();
-  render->add_option("--depth", ropt.depth,
-                     "Also write linear eye depth: float32 little-endian, H x W, row 0 = top, +inf where "
-                     "empty; the camera goes beside it in FILE.json");
+  render->add_option("-o,--output", ropt.output, "Colour image to write (PNG, 8-bit sRGB)")
+      ->required();
+  render->add_option(
+      "--depth", ropt.depth,
+      "Also write linear eye depth: float32 little-endian, H x W, row 0 = top, +inf where "
+      "empty; the camera goes beside it in FILE.json");
   render->add_option("--mask", ropt.mask, "Also write the silhouette (PNG, 255 where covered)");
   render->add_option("--camera", ropt.camera, "Camera file overriding the scene's camera");
   render->add_option("--width", ropt.width, "Image width in pixels (overrides camera and scene)")
@@ -107,11 +111,14 @@ int main(int argc, char** argv) {
   render->add_option("--height", ropt.height, "Image height in pixels (overrides camera and scene)")
       ->check(CLI::Range(1, 8192));
   render->footer(
-      "Image size: --width/--height, else the camera's width/height, else the scene's render block.\n"
-      "Example: raywarp render examples/bunny_twist.json -o out/bunny_twist.png --depth out/bunny_twist.f32");
+      "Image size: --width/--height, else the camera's width/height, else the scene's render "
+      "block.\n"
+      "Example: raywarp render examples/bunny_twist.json -o out/bunny_twist.png --depth "
+      "out/bunny_twist.f32");
 
   std::string info_path;
-  auto* info = app.add_subcommand("info", "Print a mesh's vertex and face counts, bounds and closedness");
+  auto* info =
+      app.add_subcommand("info", "Print a mesh's vertex and face counts, bounds and closedness");
   info->add_option("mesh", info_path, "Mesh file (OBJ, PLY, STL, OFF, glTF, ...)")->required();
 
   CLI11_PARSE(app, argc, argv);

@@ -37,7 +37,8 @@ std::vector<BoxTextures> PreparedScene::textures() const {
 
 std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_index) {
   const BoxSpec& spec = scene.boxes.at(box_index);
-  const std::string field = scene.file.string() + ": boxes[" + std::to_string(box_index) + "].deformer";
+  const std::string field =
+      scene.file.string() + ": boxes[" + std::to_string(box_index) + "].deformer";
   Axis axis = static_cast<Axis>(spec.deformer.axis);
   try {
     if (spec.deformer.type == "twist")
@@ -54,7 +55,8 @@ std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Defo
   static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   auto identity = deformer.identity_faces();
   std::vector<Eigen::Vector3d> local(mesh.V.rows());
-  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) local[i] = box.to_local(mesh.V.row(i).transpose());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    local[i] = box.to_local(mesh.V.row(i).transpose());
   bool crossed[6] = {false, false, false, false, false, false};
   const Eigen::Vector3d& h = box.half_extents;
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
@@ -112,12 +114,13 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
     box.folds = measure_folds(*box.deformer, spec.box.half_extents);
     if (box.folds.folds())
       box.warnings.push_back(
-          "the deformation folds space in " + fmt("%.3g", box.folds.folded_volume) + " cubic units (" +
-          fmt("%.2f", 100.0 * box.folds.folded_volume / box.folds.box_volume) +
+          "the deformation folds space in " + fmt("%.3g", box.folds.folded_volume) +
+          " cubic units (" + fmt("%.2f", 100.0 * box.folds.folded_volume / box.folds.box_volume) +
           " % of the box, where det J <= 0); raywarp renders the non-folded branch there");
     for (const auto& face : torn_faces(out.mesh, spec.box, *box.deformer))
-      box.warnings.push_back("the mesh crosses box face " + face +
-                             ", where the deformation is not the identity: the surface tears there");
+      box.warnings.push_back(
+          "the mesh crosses box face " + face +
+          ", where the deformation is not the identity: the surface tears there");
     double ray_length = def.grid.extent().norm();
     double reach = scene.render.max_steps * scene.render.step_voxels * sdf.grid.spacing;
     if (reach < ray_length)

@@ -12,9 +12,13 @@ struct Box {
   Eigen::Vector3d half_extents = Eigen::Vector3d::Ones();
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // local -> object, orthonormal
 
-  Eigen::Vector3d to_local(const Eigen::Vector3d& p) const { return rotation.transpose() * (p - centre); }
+  Eigen::Vector3d to_local(const Eigen::Vector3d& p) const {
+    return rotation.transpose() * (p - centre);
+  }
   Eigen::Vector3d to_object(const Eigen::Vector3d& q) const { return centre + rotation * q; }
-  Eigen::Vector3d direction_to_local(const Eigen::Vector3d& v) const { return rotation.transpose() * v; }
+  Eigen::Vector3d direction_to_local(const Eigen::Vector3d& v) const {
+    return rotation.transpose() * v;
+  }
   Eigen::Vector3d direction_to_object(const Eigen::Vector3d& v) const { return rotation * v; }
   bool contains_local(const Eigen::Vector3d& q) const {
     return (q.cwiseAbs().array() <= half_extents.array()).all();

@@ -110,14 +110,15 @@ Ray Camera::pixel_ray(int x, int y, int W, int H) const {
 
 Camera camera_from_json(const nlohmann::json& j, const std::string& where) {
   if (!j.is_object()) throw Error(where + " = " + j.dump() + ": must be a JSON object");
-  static const char* known[] = {"projection", "eye",    "target", "up",   "fov_y_deg",
+  static const char* known[] = {"projection",   "eye",   "target", "up",   "fov_y_deg",
                                 "ortho_height", "width", "height", "near", "far"};
   for (const auto& [key, value] : j.items()) {
     bool ok = false;
     for (const char* k : known) ok = ok || key == k;
     if (!ok)
-      throw Error(where + "." + key + ": unknown field; allowed: projection, eye, target, up, "
-                          "fov_y_deg, ortho_height, width, height, near, far");
+      throw Error(where + "." + key +
+                  ": unknown field; allowed: projection, eye, target, up, "
+                  "fov_y_deg, ortho_height, width, height, near, far");
   }
   Camera c;
   if (j.contains("projection")) {
@@ -127,7 +128,8 @@ Camera camera_from_json(const nlohmann::json& j, const std::string& where) {
     else if (p == "orthographic")
       c.projection = Camera::Projection::Orthographic;
     else
-      throw Error(where + ".projection = " + p.dump() + ": must be \"perspective\" or \"orthographic\"");
+      throw Error(where + ".projection = " + p.dump() +
+                  ": must be \"perspective\" or \"orthographic\"");
   }
   for (const char* key : {"eye", "target"})
     if (!j.contains(key)) throw Error(where + "." + key + ": missing; give a point [x, y, z]");
@@ -137,7 +139,8 @@ Camera camera_from_json(const nlohmann::json& j, const std::string& where) {
   if ((c.target - c.eye).norm() <= 1e-12 * (1.0 + c.eye.norm()))
     throw Error(where + ".target: equals eye " + j["eye"].dump() + "; they must differ");
   if (c.up.norm() == 0.0 || c.up.normalized().cross(c.view_direction()).norm() < 1e-6)
-    throw Error(where + ".up = " + nlohmann::json(std::vector<double>{c.up.x(), c.up.y(), c.up.z()}).dump() +
+    throw Error(where + ".up = " +
+                nlohmann::json(std::vector<double>{c.up.x(), c.up.y(), c.up.z()}).dump() +
                 ": must be non-zero and not parallel to target - eye");
   if (j.contains("fov_y_deg")) c.fov_y_deg = read_number(j, where, "fov_y_deg", 0, 180, true, true);
   if (j.contains("ortho_height"))
@@ -153,8 +156,8 @@ Camera camera_from_json(const nlohmann::json& j, const std::string& where) {
   if (j.contains("near")) c.near_plane = read_number(j, where, "near", 0, 1e30, true, false);
   if (j.contains("far")) c.far_plane = read_number(j, where, "far", 0, 1e30, true, false);
   if (!(c.far_plane > c.near_plane))
-    throw Error(where + ".far = " + nlohmann::json(c.far_plane).dump() + ": must be greater than near (" +
-                nlohmann::json(c.near_plane).dump() + ")");
+    throw Error(where + ".far = " + nlohmann::json(c.far_plane).dump() +
+                ": must be greater than near (" + nlohmann::json(c.near_plane).dump() + ")");
   return c;
 }
 
@@ -172,13 +175,14 @@ Camera load_camera(const std::string& path) {
 
 nlohmann::json camera_to_json(const Camera& c) {
   auto v = [](const Eigen::Vector3d& x) { return std::vector<double>{x.x(), x.y(), x.z()}; };
-  nlohmann::json j = {{"projection", c.projection == Camera::Projection::Perspective ? "perspective"
-                                                                                     : "orthographic"},
-                      {"eye", v(c.eye)},
-                      {"target", v(c.target)},
-                      {"up", v(c.up)},
-                      {"near", c.near_plane},
-                      {"far", c.far_plane}};
+  nlohmann::json j = {
+      {"projection",
+       c.projection == Camera::Projection::Perspective ? "perspective" : "orthographic"},
+      {"eye", v(c.eye)},
+      {"target", v(c.target)},
+      {"up", v(c.up)},
+      {"near", c.near_plane},
+      {"far", c.far_plane}};
   if (c.projection == Camera::Projection::Perspective)
     j["fov_y_deg"] = c.fov_y_deg;
   else

@@ -34,7 +34,8 @@ struct Grid3 {
 
   size_t size() const { return data.size(); }
   size_t index(int i, int j, int k) const {
-    return static_cast<size_t>(i) + static_cast<size_t>(dims.x()) * (j + static_cast<size_t>(dims.y()) * k);
+    return static_cast<size_t>(i) +
+           static_cast<size_t>(dims.x()) * (j + static_cast<size_t>(dims.y()) * k);
   }
   T& at(int i, int j, int k) { return data[index(i, j, k)]; }
   const T& at(int i, int j, int k) const { return data[index(i, j, k)]; }
@@ -58,7 +59,9 @@ struct Grid3 {
       i1[a] = std::clamp(base + 1, 0, dims[a] - 1);
     }
     auto v = [this](int i, int j, int k) { return to_double(at(i, j, k)); };
-    auto lerp = [](const auto& a, const auto& b, double t) { return (a * (1.0 - t) + b * t).eval(); };
+    auto lerp = [](const auto& a, const auto& b, double t) {
+      return (a * (1.0 - t) + b * t).eval();
+    };
     auto c00 = lerp(v(i0[0], i0[1], i0[2]), v(i1[0], i0[1], i0[2]), w[0]);
     auto c10 = lerp(v(i0[0], i1[1], i0[2]), v(i1[0], i1[1], i0[2]), w[0]);
     auto c01 = lerp(v(i0[0], i0[1], i1[2]), v(i1[0], i0[1], i1[2]), w[0]);
@@ -77,12 +80,13 @@ struct Grid3 {
 // Cubic texels over `lower..upper` with `resolution` texels along the longest side; the region
 // is grown symmetrically to a whole number of texels on the other sides.
 template <class T>
-Grid3<T> make_grid_over(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper,
-                        int resolution, const T& fill = T()) {
+Grid3<T> make_grid_over(const Eigen::Vector3d& lower, const Eigen::Vector3d& upper, int resolution,
+                        const T& fill = T()) {
   Eigen::Vector3d ext = (upper - lower).cwiseMax(1e-12);
   double spacing = ext.maxCoeff() / resolution;
   Eigen::Vector3i dims;
-  for (int a = 0; a < 3; ++a) dims[a] = std::max(1, static_cast<int>(std::ceil(ext[a] / spacing - 1e-9)));
+  for (int a = 0; a < 3; ++a)
+    dims[a] = std::max(1, static_cast<int>(std::ceil(ext[a] / spacing - 1e-9)));
   Eigen::Vector3d centre = 0.5 * (lower + upper);
   Eigen::Vector3d origin = centre - 0.5 * spacing * dims.cast<double>();
   return Grid3<T>(origin, spacing, dims, fill);

@@ -26,11 +26,11 @@ void write_file_atomic(const std::string& path, const void* bytes, size_t size);
 
 // Silhouette and depth agreement of two renders of the same camera.
 struct ImageComparison {
-  double iou = 0.0;                  // |A and B| / |A or B| of the covered pixels
-  long common = 0;                   // pixels covered in both
-  double mean_depth_error = 0.0;     // over common pixels
-  double max_depth_error = 0.0;      // over common pixels
-  double fraction_over = 0.0;        // common pixels with |depth error| > threshold
+  double iou = 0.0;               // |A and B| / |A or B| of the covered pixels
+  long common = 0;                // pixels covered in both
+  double mean_depth_error = 0.0;  // over common pixels
+  double max_depth_error = 0.0;   // over common pixels
+  double fraction_over = 0.0;     // common pixels with |depth error| > threshold
   double threshold = 0.0;
 };
 ImageComparison compare_images(const Image& a, const Image& b, double depth_threshold);

@@ -82,7 +82,7 @@ void check_memory(const GridShape& shape, const ImplicitSpec& spec, size_t budge
                 std::to_string(shape.dims.z()) + " texels), over the budget of " +
                 format_number(double(budget_bytes) / kMiB) + " MiB");
   }
-  // The sign flood fill indexes texels with 32 bits.
+  // Texel indices are 32-bit (the queues of the band growth and the sign flood fill).
   if (shape.texels() >= double(std::numeric_limits<uint32_t>::max())) {
     throw Error("implicit.resolution = " + std::to_string(spec.resolution) + ": " +
                 format_number(shape.texels()) + " texels, allowed < 2^32");
@@ -253,6 +253,25 @@ class TriangleTree {
 
 enum TexelState : uint8_t { kUnvisited = 0, kQueued, kBeyond, kBand };
 
+// Centre of texel `t` (Grid3's storage index, x fastest).
+Eigen::Vector3d centre_of(const Grid3<float>& grid, uint32_t t) {
+  const uint32_t nx = grid.dims.x(), ny = grid.dims.y();
+  return grid.texel_centre(int(t % nx), int(t / nx % ny), int(t / nx / ny));
+}
+
+// Calls fn(u) for the storage index u of each of the 6 face neighbours of texel t in the grid.
+template <class Fn>
+void for_each_face_neighbour(const Grid3<float>& grid, uint32_t t, Fn fn) {
+  const uint32_t nx = grid.dims.x(), ny = grid.dims.y(), nz = grid.dims.z();
+  const uint32_t i = t % nx, j = t / nx % ny, k = t / nx / ny;
+  if (i > 0) fn(t - 1);
+  if (i + 1 < nx) fn(t + 1);
+  if (j > 0) fn(t - nx);
+  if (j + 1 < ny) fn(t + nx);
+  if (k > 0) fn(t - nx * ny);
+  if (k + 1 < nz) fn(t + nx * ny);
+}
+
 // Unsigned distances: band texels (nearer than `background` to a triangle) get their exact
 // distance, the others `background`. OpenVDB's narrow band says which texels to look at, but
 // only its values under 1.5 voxels are exact: its voxelizer measures each triangle exactly at
@@ -291,21 +310,15 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
   // OpenVDB's value is the distance to some triangle, in single precision from single-precision
   // points: padded by rounding (~1e-7 of coordinates ~resolution voxels), it bounds the search.
   const float exact_below = float(1.5 * grid.spacing);
-  const int nx = grid.dims.x(), ny = grid.dims.y(), nz = grid.dims.z();
   std::vector<uint32_t> wave, next;
-  // Queues the unvisited 6-neighbours of band texel t.
+  // Queues the unvisited face neighbours of band texel t.
   auto grow = [&](uint32_t t) {
-    const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
-    const int neighbours[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
-                                  {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
-    for (const auto& m : neighbours) {
-      if (m[0] < 0 || m[1] < 0 || m[2] < 0 || m[0] >= nx || m[1] >= ny || m[2] >= nz) continue;
-      const size_t u = grid.index(m[0], m[1], m[2]);
+    for_each_face_neighbour(grid, t, [&](uint32_t u) {
       if (state[u] == kUnvisited) {
         state[u] = kQueued;
-        next.push_back(static_cast<uint32_t>(u));
+        next.push_back(u);
       }
-    }
+    });
   };
   for (auto it = vdb->cbeginValueOn(); it; ++it) {
     const openvdb::Coord ijk = it.getCoord();
@@ -345,8 +358,7 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
     tbb::parallel_for(tbb::blocked_range<size_t>(0, wave.size()), [&](const auto& range) {
       for (size_t n = range.begin(); n != range.end(); ++n) {
         const uint32_t t = wave[n];
-        const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
-        const Eigen::Vector3d q = grid.texel_centre(i, j, k);
+        const Eigen::Vector3d q = centre_of(grid, t);
         distance[n] = float(tree.nearest(openvdb::Vec3d(q.x(), q.y(), q.z()), grid.data[t]));
       }
     });
@@ -375,7 +387,6 @@ void sign_band(const WindingNumber& winding, const Box& box, const Grid3<float>&
   for (size_t t = 0; t < state.size(); ++t) {
     if (state[t] == kBand) texels.push_back(static_cast<uint32_t>(t));
   }
-  const int nx = grid.dims.x(), ny = grid.dims.y();
   // Batches between progress reports; each batch runs in parallel.
   const size_t batch = std::max<size_t>(1 << 16, texels.size() / 50);
   for (size_t begin = 0; begin < texels.size(); begin += batch) {
@@ -384,8 +395,7 @@ void sign_band(const WindingNumber& winding, const Box& box, const Grid3<float>&
     tbb::parallel_for(tbb::blocked_range<size_t>(begin, end), [&](const auto& range) {
       for (size_t n = range.begin(); n != range.end(); ++n) {
         const uint32_t t = texels[n];
-        const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
-        sign[t] = winding(box.to_object(grid.texel_centre(i, j, k))) > 0.5 ? 1 : -1;
+        sign[t] = winding(box.to_object(centre_of(grid, t))) > 0.5 ? 1 : -1;
       }
     });
   }
@@ -396,7 +406,6 @@ void sign_band(const WindingNumber& winding, const Box& box, const Grid3<float>&
 // takes the winding number at one of its texels.
 void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<float>& grid,
                       std::vector<int8_t>& sign) {
-  const int nx = grid.dims.x(), ny = grid.dims.y(), nz = grid.dims.z();
   std::vector<uint32_t> queue;
   queue.reserve(grid.size());
   for (size_t t = 0; t < sign.size(); ++t) {
@@ -405,24 +414,18 @@ void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<
   auto flood = [&](size_t head) {
     for (; head < queue.size(); ++head) {
       const uint32_t t = queue[head];
-      const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
-      const int neighbours[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
-                                    {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
-      for (const auto& n : neighbours) {
-        if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= nx || n[1] >= ny || n[2] >= nz) continue;
-        const size_t u = grid.index(n[0], n[1], n[2]);
+      for_each_face_neighbour(grid, t, [&](uint32_t u) {
         if (sign[u] == 0) {
           sign[u] = sign[t];
-          queue.push_back(static_cast<uint32_t>(u));
+          queue.push_back(u);
         }
-      }
+      });
     }
   };
   flood(0);
   for (size_t t = 0; t < sign.size(); ++t) {
     if (sign[t] != 0) continue;
-    const int i = int(t % nx), j = int((t / nx) % ny), k = int(t / (size_t(nx) * ny));
-    sign[t] = winding(box.to_object(grid.texel_centre(i, j, k))) > 0.5 ? 1 : -1;
+    sign[t] = winding(box.to_object(centre_of(grid, uint32_t(t)))) > 0.5 ? 1 : -1;
     const size_t head = queue.size();
     queue.push_back(static_cast<uint32_t>(t));
     flood(head);

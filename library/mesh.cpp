@@ -112,7 +112,7 @@ Mesh load_mesh(const std::string& path) {
     throw Error(path + ": cannot read mesh: no such file");
   }
   Assimp::Importer importer;
-  // Normals are not generated: raywarp shades the distance grid's gradient.
+  // No normals are generated: vertex_normals() computes them where needed.
   const aiScene* scene =
       importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
   if (scene == nullptr || scene->mRootNode == nullptr) {

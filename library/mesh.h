@@ -8,7 +8,8 @@ namespace raywarp {
 
 struct Mesh {
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> V;  // vertices, object units
-  Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor> F;     // triangles, counter-clockwise seen from outside
+  Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>
+      F;  // triangles, counter-clockwise seen from outside
   Eigen::Vector3d vertex(int f, int c) const { return V.row(F(f, c)).transpose(); }
 };
 

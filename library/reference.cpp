@@ -501,12 +501,41 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   auto g = [&](double t) { return deformed_distance(box, origin + t * direction); };
   // Linear search (eq. 3) with a fixed step, bounded by max_steps.
   const double step = settings.step_voxels * box.sdf.grid.spacing;
-  double lo = t0, hi = t0;
+  // The samples are the regular ones, t0 + i * step, merged with one just before each crossing
+  // of a box face plane: that catches slivers of S_D thinner than a step that end on a face
+  // (at the seam with the raster pass, where a missed sliver would show the mesh's inside).
+  const double before = 1e-3 * step;
+  const double seam = kSeamVoxels * box.sdf.grid.spacing;
+  double crossings[6];
+  for (int a = 0; a < 3; ++a)
+    for (int s = 0; s < 2; ++s)
+      crossings[2 * a + s] =
+          direction[a] != 0.0
+              ? ((s ? 1.0 : -1.0) * box.box.half_extents[a] - origin[a]) / direction[a] - before
+              : -kInfinity;
+  double lo = t0, hi = t0, regular = t0 + step;
   bool hit = g(t0) > 0.0;  // a ray that starts inside the surface hits at t0
-  for (int i = 1; i <= settings.max_steps && !hit; ++i) {
+  for (int i = 1; i <= settings.max_steps + 6 && !hit; ++i) {
     lo = hi;
-    hi = std::min(t0 + i * step, t1);
-    hit = g(hi) > 0.0;
+    double next_crossing = kInfinity;
+    for (double tc : crossings)
+      next_crossing = tc > lo ? std::min(next_crossing, tc) : next_crossing;
+    bool at_face = next_crossing < std::min(regular, t1);
+    if (at_face) {
+      hi = next_crossing;
+    } else {
+      hi = std::min(regular, t1);
+      regular += step;
+    }
+    double value = g(hi);
+    hit = value > 0.0;
+    // At a face the implicit surface may lie up to a fraction of a voxel inside the mesh that
+    // the raster pass draws beyond the face (up to about a voxel): within `seam` of it counts as
+    // the hit, so no crack opens between the passes.
+    if (at_face && !hit && value > -seam) {
+      hit = true;
+      lo = hi;
+    }
     if (hi >= t1) break;
   }
   if (!hit) return std::nullopt;

@@ -22,9 +22,9 @@ namespace raywarp {
 
 // A ray-cast hit in the box's local frame.
 struct RayHit {
-  double t = 0.0;                 // along the local ray (unit direction: same as object units)
-  Eigen::Vector3d point;          // deformed position p'
-  Eigen::Vector3d normal;         // outward unit normal of the deformed surface (eq. 5)
+  double t = 0.0;          // along the local ray (unit direction: same as object units)
+  Eigen::Vector3d point;   // deformed position p'
+  Eigen::Vector3d normal;  // outward unit normal of the deformed surface (eq. 5)
 };
 
 // The ray cast of one box along a local-frame ray over [t0, t1], exactly as the shader does it.
@@ -33,8 +33,7 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
                                    const RenderSettings& settings);
 
 Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
-                       const Camera& camera, int width, int height,
-                       const RenderSettings& settings);
+                       const Camera& camera, int width, int height, const RenderSettings& settings);
 
 // The mesh with every triangle that meets `box` split at the box faces and subdivided so that
 // its edges are shorter than `max_edge`; the pieces inside the box are mapped by

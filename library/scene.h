@@ -19,10 +19,10 @@ struct DeformerSpec {
 };
 
 struct ImplicitSpec {
-  std::string type = "sdf";   // "sdf"
-  int resolution = 128;       // voxels along the box's longest side, [8, 1024]
-  double band_voxels = 3.0;   // narrow-band half width, [1, 32]
-  double margin_voxels = 2.0; // grid margin around the box, [0, 64]
+  std::string type = "sdf";    // "sdf"
+  int resolution = 128;        // voxels along the box's longest side, [8, 1024]
+  double band_voxels = 3.0;    // narrow-band half width, [1, 32]
+  double margin_voxels = 2.0;  // grid margin around the box, [0, 64]
 };
 
 struct BoxSpec {
@@ -33,10 +33,10 @@ struct BoxSpec {
 };
 
 struct RenderSettings {
-  int width = 512, height = 512;     // [1, 8192]
-  double step_voxels = 0.5;          // linear-search step in voxels of the distance grid, (0, 8]
-  int max_steps = 1024;              // bound on the linear search, [1, 100000]
-  int refine_steps = 8;              // binary refinement steps, [0, 64]
+  int width = 512, height = 512;        // [1, 8192]
+  double step_voxels = 0.5;             // linear-search step in voxels of the distance grid, (0, 8]
+  int max_steps = 1024;                 // bound on the linear search, [1, 100000]
+  int refine_steps = 8;                 // binary refinement steps, [0, 64]
   Eigen::Vector3d background{1, 1, 1};  // linear RGB in [0, 1]
   Eigen::Vector3d colour{0.8, 0.62, 0.45};  // surface albedo, linear RGB in [0, 1]
 };

@@ -31,6 +31,11 @@ struct DeformationTexture {
   double bake_seconds = 0.0;
 };
 
+// Where a ray leaves a box through a face, the ray caster counts a sample within this many
+// voxels of the implicit surface as a hit: the distance grid's surface may lie up to about a voxel
+// inside the mesh the raster pass draws beyond the face, and a crack would show the mesh's inside.
+constexpr double kSeamVoxels = 1.0;
+
 // Everything the ray caster needs for one box.
 struct BoxTextures {
   Box box;

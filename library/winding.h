@@ -19,8 +19,8 @@ class WindingNumber {
   explicit WindingNumber(const Mesh& mesh, double beta = 2.0);
   ~WindingNumber();
   WindingNumber(WindingNumber&&) noexcept;
-  double operator()(const Eigen::Vector3d& q) const;   // hierarchical
-  double exact(const Eigen::Vector3d& q) const;        // sum over all triangles (for tests)
+  double operator()(const Eigen::Vector3d& q) const;  // hierarchical
+  double exact(const Eigen::Vector3d& q) const;       // sum over all triangles (for tests)
 
  private:
   struct Impl;

@@ -18,6 +18,7 @@ uniform float u_def_spacing;
 uniform float u_step;             // linear-search step, object units
 uniform int u_max_steps;
 uniform int u_refine_steps;
+uniform float u_seam;             // tolerance at box faces, object units
 layout(location = 0) out vec4 out_colour;
 layout(location = 1) out float out_depth;
 
@@ -63,13 +64,37 @@ void main() {
   float t1 = min(min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z)), t_far);
   if (t0 >= t1) discard;
 
-  // Linear search, bounded by u_max_steps.
-  float lo = t0, hi = t0;
+  // The samples are the regular ones, t0 + i * u_step, merged with one just before each crossing
+  // of a box face plane: that catches slivers of S_D thinner than a step that end on a face
+  // (at the seam with the raster pass, where a missed sliver would show the mesh's inside).
+  float before = 1e-3 * u_step;
+  vec3 cross_lo = (-u_half_extents - o) * inv - before, cross_hi = (u_half_extents - o) * inv - before;
+
+  // Linear search, bounded by u_max_steps (+ the 6 face samples).
+  float lo = t0, hi = t0, regular = t0 + u_step;
   bool hit = g(o + t0 * d) > 0.0;
-  for (int i = 1; i <= u_max_steps && !hit; ++i) {
+  for (int i = 1; i <= u_max_steps + 6 && !hit; ++i) {
     lo = hi;
-    hi = min(t0 + float(i) * u_step, t1);
-    hit = g(o + hi * d) > 0.0;
+    vec3 a = mix(vec3(1e30), cross_lo, greaterThan(cross_lo, vec3(lo)));
+    vec3 b = mix(vec3(1e30), cross_hi, greaterThan(cross_hi, vec3(lo)));
+    vec3 m = min(a, b);
+    float next_crossing = min(min(m.x, m.y), m.z);
+    bool at_face = next_crossing < min(regular, t1);
+    if (at_face) {
+      hi = next_crossing;
+    } else {
+      hi = min(regular, t1);
+      regular += u_step;
+    }
+    float value = g(o + hi * d);
+    hit = value > 0.0;
+    // At a face the implicit surface may lie up to a fraction of a voxel inside the mesh that
+    // the raster pass draws beyond the face: within u_seam of it counts as the hit, so no crack
+    // opens between the passes.
+    if (at_face && !hit && value > -u_seam) {
+      hit = true;
+      lo = hi;
+    }
     if (hi >= t1) break;
   }
   if (!hit) discard;

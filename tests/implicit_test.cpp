@@ -152,7 +152,7 @@ TEST(Implicit, SphereDistancesMatchWithinTheTessellation) {
   const double sag = fixtures::max_sagitta(sphere, r);
   ASSERT_LT(sag, 2e-3);  // a tolerance much finer than the voxel (0.05)
   const Box box = cube_box(1.25);
-  const DistanceGrid sdf = bake_distance_grid(sphere, box, spec_with(48));
+  const DistanceGrid sdf = bake_distance_grid(sphere, box, spec_with(40));
   expect_signed_distance(
       sdf, box, [&](const Eigen::Vector3d& p) { return r - p.norm(); }, sag, 0, 1e-5);
 }
@@ -166,16 +166,16 @@ TEST(Implicit, RotatedBoxReadsTheMeshInItsLocalFrame) {
   box.rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const double r = 0.8;
   const Eigen::Vector3d c(0.2, 0.0, 0.0);
-  const Mesh sphere = fixtures::icosphere(r, 5, c);
+  const Mesh sphere = fixtures::icosphere(r, 4, c);
   const double sag = fixtures::max_sagitta(sphere, r);
-  const DistanceGrid sdf = bake_distance_grid(sphere, box, spec_with(40));
-  EXPECT_DOUBLE_EQ(sdf.grid.spacing, 2 * 0.9 / 40);
+  const DistanceGrid sdf = bake_distance_grid(sphere, box, spec_with(32));
+  EXPECT_DOUBLE_EQ(sdf.grid.spacing, 2 * 0.9 / 32);
   expect_signed_distance(
       sdf, box, [&](const Eigen::Vector3d& p) { return r - (p - c).norm(); }, sag, 0, 1e-5);
 }
 
 TEST(Implicit, BunnyMatchesBruteForceDistanceAndExactWindingNumber) {
-  // A real scan in a rotated box over its head: every 13th texel against the distance to all
+  // A real scan in a rotated box over its head: 300 texels against the distance to all
   // 3674 triangles (double, by cases) and the sign of the exact winding number (the bunny is
   // closed: w is 0 or 1 up to rounding). Band values are the same distance computed in double
   // and stored as float: 1e-6 relative to the coordinates (~5) is 5e-6.
@@ -188,7 +188,8 @@ TEST(Implicit, BunnyMatchesBruteForceDistanceAndExactWindingNumber) {
   const DistanceGrid sdf = bake_distance_grid(bunny, box, spec_with(32));
   const WindingNumber winding(bunny);
   long band = 0, beyond = 0;
-  for (size_t t = 0; t < sdf.grid.size(); t += 13) {
+  const size_t stride = sdf.grid.size() / 300 | 1;  // odd: no alignment with the rows
+  for (size_t t = 0; t < sdf.grid.size(); t += stride) {
     const int i = int(t % sdf.grid.dims.x()), j = int(t / sdf.grid.dims.x() % sdf.grid.dims.y()),
               k = int(t / sdf.grid.dims.x() / sdf.grid.dims.y());
     const Eigen::Vector3d p = box.to_object(sdf.grid.texel_centre(i, j, k));
@@ -206,8 +207,8 @@ TEST(Implicit, BunnyMatchesBruteForceDistanceAndExactWindingNumber) {
       EXPECT_EQ(f > 0, inside) << "f = " << f << " at " << p.transpose();
     }
   }
-  EXPECT_GT(band, 100);
-  EXPECT_GT(beyond, 100);
+  EXPECT_GT(band, 25);
+  EXPECT_GT(beyond, 25);
 }
 
 TEST(Implicit, OpenMeshKeepsItsInsidePositive) {
@@ -220,8 +221,8 @@ TEST(Implicit, OpenMeshKeepsItsInsidePositive) {
   const Mesh open = fixtures::with_hole(closed, hole, hole_radius);
   ASSERT_FALSE(mesh_stats(open).closed());
   const Box box = cube_box(1.25);
-  const DistanceGrid a = bake_distance_grid(closed, box, spec_with(40));
-  const DistanceGrid b = bake_distance_grid(open, box, spec_with(40));
+  const DistanceGrid a = bake_distance_grid(closed, box, spec_with(32));
+  const DistanceGrid b = bake_distance_grid(open, box, spec_with(32));
   const double voxel = b.grid.spacing;
   long checked = 0;
   for (size_t t = 0; t < b.grid.size(); ++t) {

@@ -67,7 +67,8 @@ TEST_P(RenderTest, MatchesGroundTruthAndReference) {
   double diagonal = bounds_of(truth_mesh).diagonal().norm();
   ImageComparison vs_truth = compare_images(gl_image, truth, 0.01 * diagonal);
 
-  Image cpu = reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
+  Image cpu =
+      reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
   ImageComparison vs_cpu = compare_images(gl_image, cpu, 0.01 * diagonal);
 
   std::string name = GetParam().scene.substr(0, GetParam().scene.size() - 5) + "_" +
@@ -76,9 +77,9 @@ TEST_P(RenderTest, MatchesGroundTruthAndReference) {
       "[figures] %s: %zu ground-truth triangles; GL vs ground truth: IoU %.4f, over 1%% of diag "
       "%.2f%%, mean depth err %.4g, max %.4g (diag %.3g); GL vs CPU reference: IoU %.4f, over "
       "%.2f%%, mean %.4g; frame %.1f ms\n",
-      name.c_str(), static_cast<size_t>(truth_mesh.F.rows()), vs_truth.iou, 100 * vs_truth.fraction_over,
-      vs_truth.mean_depth_error, vs_truth.max_depth_error, diagonal, vs_cpu.iou, 100 * vs_cpu.fraction_over,
-      vs_cpu.mean_depth_error, stats.milliseconds);
+      name.c_str(), static_cast<size_t>(truth_mesh.F.rows()), vs_truth.iou,
+      100 * vs_truth.fraction_over, vs_truth.mean_depth_error, vs_truth.max_depth_error, diagonal,
+      vs_cpu.iou, 100 * vs_cpu.fraction_over, vs_cpu.mean_depth_error, stats.milliseconds);
   std::filesystem::create_directories("render_test_images");
   write_png("render_test_images/" + name + "_gl.png", gl_image);
   write_png("render_test_images/" + name + "_truth.png", truth);

@@ -47,7 +47,7 @@ TEST(Winding, ExactIsOneInsideAndZeroOutsideClosedMeshes) {
   const Mesh cube = fixtures::cube(1.0);
   const WindingNumber ws(sphere), wc(cube);
   for (const Eigen::Vector3d& p :
-       random_points(2000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(2.0), 1)) {
+       random_points(1000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(2.0), 1)) {
     const double r = p.norm();
     // The inscribed icosphere lies between radii cos(angle) and 1: skip that shell.
     if (r < 0.95 || r > 1.0) {
@@ -107,7 +107,7 @@ TEST(Winding, HierarchicalMatchesExactAwayFromTheSurface) {
   const Mesh cube = fixtures::cube(1.0);
   const WindingNumber sphere_default(sphere), sphere_fine(sphere, 5.0), cube_default(cube);
   for (const Eigen::Vector3d& p :
-       random_points(2000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(2.0), 2)) {
+       random_points(1000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(2.0), 2)) {
     if (std::abs(p.norm() - 1.0) < 0.05) continue;  // away from the surface
     const double exact = sphere_default.exact(p);
     EXPECT_NEAR(sphere_fine(p), exact, 1e-2) << p.transpose();
@@ -124,7 +124,7 @@ TEST(Winding, BunnySignsAgreeWithTheExactSum) {
   const MeshStats stats = mesh_stats(bunny);
   const WindingNumber w(bunny);
   const std::vector<Eigen::Vector3d> points =
-      random_points(2000, stats.bounds.center(), 0.6 * stats.bounds.sizes(), 3);
+      random_points(1000, stats.bounds.center(), 0.6 * stats.bounds.sizes(), 3);
   int agree = 0, inside = 0;
   for (const Eigen::Vector3d& p : points) {
     const bool exact_inside = w.exact(p) > 0.5;
@@ -154,7 +154,7 @@ TEST(Winding, ConcurrentQueriesEqualSerialOnes) {
   const Mesh sphere = fixtures::icosphere(1.0, 4);
   const WindingNumber w(sphere);
   const std::vector<Eigen::Vector3d> points =
-      random_points(20000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(1.5), 4);
+      random_points(5000, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(1.5), 4);
   std::vector<double> serial(points.size()), parallel(points.size());
   for (size_t i = 0; i < points.size(); ++i) serial[i] = w(points[i]);
   std::vector<std::thread> threads;

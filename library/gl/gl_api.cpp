@@ -11,8 +11,8 @@ RAYWARP_GL_FUNCTIONS(RAYWARP_GL_DEFINE)
 #undef RAYWARP_GL_DEFINE
 
 void load_gl(ProcLoader loader) {
-#define RAYWARP_GL_LOAD(type, name)                                                     \
-  name = reinterpret_cast<type>(loader(#name));                                         \
+#define RAYWARP_GL_LOAD(type, name)             \
+  name = reinterpret_cast<type>(loader(#name)); \
   if (!name) throw Error(std::string("OpenGL: the context does not provide ") + #name);
   RAYWARP_GL_FUNCTIONS(RAYWARP_GL_LOAD)
 #undef RAYWARP_GL_LOAD

@@ -14,10 +14,17 @@ namespace {
 class OSMesaContextImpl : public Context {
  public:
   OSMesaContextImpl() {
-    const int attribs[] = {OSMESA_FORMAT,     OSMESA_RGBA, OSMESA_DEPTH_BITS, 24,
-                           OSMESA_PROFILE,    OSMESA_CORE_PROFILE,
-                           OSMESA_CONTEXT_MAJOR_VERSION, 4,
-                           OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
+    const int attribs[] = {OSMESA_FORMAT,
+                           OSMESA_RGBA,
+                           OSMESA_DEPTH_BITS,
+                           24,
+                           OSMESA_PROFILE,
+                           OSMESA_CORE_PROFILE,
+                           OSMESA_CONTEXT_MAJOR_VERSION,
+                           4,
+                           OSMESA_CONTEXT_MINOR_VERSION,
+                           5,
+                           0};
     ctx_ = OSMesaCreateContextAttribs(attribs, nullptr);
     if (!ctx_) throw Error("OSMesa: cannot create an OpenGL 4.5 core context");
     // The default framebuffer is unused (rendering goes to a framebuffer object) but OSMesa
@@ -28,8 +35,9 @@ class OSMesaContextImpl : public Context {
       throw Error("OSMesa: cannot make the context current");
     }
     load_gl([](const char* name) { return reinterpret_cast<void*>(OSMesaGetProcAddress(name)); });
-    description_ = std::string("OSMesa: ") + reinterpret_cast<const char*>(glGetString(GL_VERSION)) +
-                   ", " + reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    description_ = std::string("OSMesa: ") +
+                   reinterpret_cast<const char*>(glGetString(GL_VERSION)) + ", " +
+                   reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   }
   ~OSMesaContextImpl() override { OSMesaDestroyContext(ctx_); }
   std::string description() const override { return description_; }

@@ -15,8 +15,8 @@ namespace raywarp::gl {
 namespace {
 
 GLuint compile(GLenum kind, const std::string& name, const std::string& defines) {
-  std::string text =
-      assemble_shader(name, defines + (kind == GL_FRAGMENT_SHADER ? "#define RAYWARP_FRAGMENT\n" : ""));
+  std::string text = assemble_shader(
+      name, defines + (kind == GL_FRAGMENT_SHADER ? "#define RAYWARP_FRAGMENT\n" : ""));
   GLuint shader = glCreateShader(kind);
   const char* src = text.c_str();
   glShaderSource(shader, 1, &src, nullptr);
@@ -33,7 +33,8 @@ GLuint compile(GLenum kind, const std::string& name, const std::string& defines)
 }
 
 GLuint link(const std::string& vert, const std::string& frag, const std::string& defines) {
-  GLuint vs = compile(GL_VERTEX_SHADER, vert, defines), fs = compile(GL_FRAGMENT_SHADER, frag, defines);
+  GLuint vs = compile(GL_VERTEX_SHADER, vert, defines),
+         fs = compile(GL_FRAGMENT_SHADER, frag, defines);
   GLuint program = glCreateProgram();
   glAttachShader(program, vs);
   glAttachShader(program, fs);
@@ -82,8 +83,8 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
   for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T, GL_TEXTURE_WRAP_R})
     glTexParameteri(GL_TEXTURE_3D, wrap, GL_CLAMP_TO_EDGE);
   if (glGetError() != GL_NO_ERROR)
-    throw Error("OpenGL: cannot create a " + std::to_string(dims.x()) + "x" + std::to_string(dims.y()) +
-                "x" + std::to_string(dims.z()) + " 3D texture");
+    throw Error("OpenGL: cannot create a " + std::to_string(dims.x()) + "x" +
+                std::to_string(dims.y()) + "x" + std::to_string(dims.z()) + " 3D texture");
   return tex;
 }
 
@@ -139,7 +140,8 @@ struct Renderer::Impl {
     GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
     glDrawBuffers(2, buffers);
     if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      throw Error("OpenGL: cannot make a " + std::to_string(w) + "x" + std::to_string(h) + " framebuffer");
+      throw Error("OpenGL: cannot make a " + std::to_string(w) + "x" + std::to_string(h) +
+                  " framebuffer");
     fbo_w = w;
     fbo_h = h;
   }
@@ -203,7 +205,8 @@ void Renderer::set_mesh(const Mesh& mesh) {
     glGenBuffers(1, &m.mesh_ebo);
   }
   Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> positions = mesh.V.cast<float>();
-  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> normals = vertex_normals(mesh).cast<float>();
+  Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> normals =
+      vertex_normals(mesh).cast<float>();
   glBindVertexArray(m.mesh_vao);
   glBindBuffer(GL_ARRAY_BUFFER, m.mesh_vbo[0]);
   glBufferData(GL_ARRAY_BUFFER, positions.size() * sizeof(float), positions.data(), GL_STATIC_DRAW);
@@ -221,7 +224,8 @@ void Renderer::set_mesh(const Mesh& mesh) {
 
 void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
   if (boxes.size() > static_cast<size_t>(kMaxBoxes))
-    throw Error("at most " + std::to_string(kMaxBoxes) + " boxes per scene, got " + std::to_string(boxes.size()));
+    throw Error("at most " + std::to_string(kMaxBoxes) + " boxes per scene, got " +
+                std::to_string(boxes.size()));
   impl_->release_boxes();
   for (const auto& b : boxes) {
     BoxGpu gpu;
@@ -317,6 +321,7 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.vec3("u_def_size", def.extent());
     rc.f1("u_def_spacing", def.spacing);
     rc.f1("u_step", settings.step_voxels * sdf.spacing);
+    rc.f1("u_seam", kSeamVoxels * sdf.spacing);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);
     glActiveTexture(GL_TEXTURE1);
@@ -347,7 +352,8 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
       image.depth[dst + x] = bad ? std::numeric_limits<float>::infinity() : z;
       for (int c = 0; c < 4; ++c)
         image.rgba[4 * (dst + x) + c] =
-            bad ? static_cast<uint8_t>(std::lround(background[c] * 255.0f)) : rgba[4 * (src + x) + c];
+            bad ? static_cast<uint8_t>(std::lround(background[c] * 255.0f))
+                : rgba[4 * (src + x) + c];
     }
   }
   if (stats) {
