@@ -228,8 +228,13 @@ TEST(ReferenceRayCast, ConstantInverseDisplacementMovesTheSphere) {
     auto truth = sphere_hit(o, d, moved, kUnitSphere.radius);
     ASSERT_TRUE(hit && truth) << "trial " << trial;
     double cos_incidence = -(o + *truth * d - moved).normalized().dot(d);
-    EXPECT_NEAR(hit->t, *truth, hit_tolerance(tex, settings, kUnitSphere.radius, cos_incidence))
-        << "trial " << trial;
+    double tolerance = hit_tolerance(tex, settings, kUnitSphere.radius, cos_incidence);
+    // The sphere pokes out of the box: a hit just before a box face plane (crossed by the ray in
+    // the deformed space) may be kSeamVoxels from the surface.
+    bool on_face =
+        ((box.half_extents - hit->point.cwiseAbs()).array().abs() < tex.sdf.grid.spacing).any();
+    if (on_face) tolerance += kSeamVoxels * tex.sdf.grid.spacing / cos_incidence;
+    EXPECT_NEAR(hit->t, *truth, tolerance) << "trial " << trial;
   }
 }
 
@@ -292,7 +297,11 @@ void expect_same_render(const Image& raster, const Image& reference, double diam
   EXPECT_GT(c.common, 2000) << name;
   // Depth: grazing rays on the rim magnify the icosphere's sagitta s ~ 1.8e-4 r (level 5) to at
   // most sqrt(2 r s) ~ 0.019 r, under 1% of the diameter; elsewhere the error is ~ s.
-  EXPECT_LT(c.fraction_over, 0.01) << name;
+  // With a seam, a sample just before a box face within kSeamVoxels of the surface counts as a
+  // hit (it closes the crack between the passes): along the cut that moves the hit by up to
+  // one voxel / cos(incidence), over 1 % of the diameter on this coarse grid. Those pixels lie
+  // on one line of the image: 2 % bounds them.
+  EXPECT_LT(c.fraction_over, seam ? 0.02 : 0.01) << name;
   if (seam) return;
   EXPECT_LT(c.mean_depth_error, 0.001 * diameter) << name;
   EXPECT_LT(c.max_depth_error, 0.01 * diameter) << name;
