@@ -12,13 +12,6 @@ namespace raywarp {
 
 namespace {
 
-// Shortest decimal text that reads back as x ("360", "1e-06").
-std::string shortest_text(double x) {
-  char buf[32];
-  const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
-  return std::string(buf, end);
-}
-
 // sin(y) / y with its limit 1 at 0. For |y| < 2^-26 sin(y) rounds to y, so the quotient is 1 to
 // the last bit and no special range is needed beyond y == 0.
 double sinc(double y) { return y == 0.0 ? 1.0 : std::sin(y) / y; }
@@ -142,10 +135,7 @@ class Bend final : public Deformer {
 
 std::unique_ptr<Deformer> make_bend(const Eigen::Vector3d& half_extents, Axis axis,
                                     double angle_deg) {
-  for (int i = 0; i < 3; ++i)
-    if (!(half_extents[i] > 0.0) || !std::isfinite(half_extents[i]))
-      throw Error("bend half_extents[" + std::to_string(i) +
-                  "] = " + shortest_text(half_extents[i]) + ": must be > 0 and finite");
+  check_half_extents("bend", half_extents);
   if (!(std::abs(angle_deg) < 360.0))
     throw Error("bend angle_deg = " + shortest_text(angle_deg) + ": must be in (-360, 360)");
   return std::make_unique<Bend>(half_extents, axis, angle_deg);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <exception>
 #include <string>
@@ -11,6 +12,19 @@
 #include "library/error.h"
 
 namespace raywarp {
+
+std::string shortest_text(double x) {
+  char buf[32];
+  const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
+  return std::string(buf, end);
+}
+
+void check_half_extents(const char* what, const Eigen::Vector3d& half_extents) {
+  for (int i = 0; i < 3; ++i)
+    if (!(half_extents[i] > 0.0) || !std::isfinite(half_extents[i]))
+      throw Error(std::string(what) + " half_extents[" + std::to_string(i) +
+                  "] = " + shortest_text(half_extents[i]) + ": must be > 0 and finite");
+}
 
 char axis_name(Axis a) {
   switch (a) {

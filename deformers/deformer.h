@@ -35,6 +35,11 @@ class Deformer {
   virtual std::array<bool, 6> identity_faces() const = 0;
 };
 
+// Shortest decimal text that reads back as x ("360", "1e-06"), for messages.
+std::string shortest_text(double x);
+// Throws Error "<what> half_extents[i] = v: must be > 0 and finite" for a bad box.
+void check_half_extents(const char* what, const Eigen::Vector3d& half_extents);
+
 // Volume of the box where det(dF/dp) <= 0, estimated on a regular lattice of samples per axis.
 struct FoldReport {
   double folded_volume = 0.0;  // object units cubed

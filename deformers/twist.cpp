@@ -12,13 +12,6 @@ namespace raywarp {
 
 namespace {
 
-// Shortest decimal text that reads back as x ("360", "1e-06").
-std::string shortest_text(double x) {
-  char buf[32];
-  const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
-  return std::string(buf, end);
-}
-
 // R_a(theta) v for the right-handed rotation about +a, given c = cos(theta), s = sin(theta):
 // the pair (u, v) = (a + 1, a + 2) mod 3 turns as (x, y) does about z.
 Eigen::Vector3d rotate_about(int a, double c, double s, const Eigen::Vector3d& p) {
@@ -97,10 +90,7 @@ class Twist final : public Deformer {
 
 std::unique_ptr<Deformer> make_twist(const Eigen::Vector3d& half_extents, Axis axis,
                                      double angle_deg) {
-  for (int i = 0; i < 3; ++i)
-    if (!(half_extents[i] > 0.0) || !std::isfinite(half_extents[i]))
-      throw Error("twist half_extents[" + std::to_string(i) +
-                  "] = " + shortest_text(half_extents[i]) + ": must be > 0 and finite");
+  check_half_extents("twist", half_extents);
   if (!std::isfinite(angle_deg))
     throw Error("twist angle_deg = " + shortest_text(angle_deg) + ": must be finite");
   return std::make_unique<Twist>(half_extents, axis, angle_deg);
