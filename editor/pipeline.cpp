@@ -97,7 +97,21 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
     box.textures.box = spec.box;
     log << tag << box.deformer->describe() << "\n";
 
-    box.textures.sdf = bake_distance_grid(out.mesh, spec.box, spec.implicit);
+    // Progress on the log every quarter of each stage, once a bake has run for a second.
+    int last_quarter = -1;
+    std::string last_stage;
+    const auto bake_start = std::chrono::steady_clock::now();
+    Progress progress = [&](const char* stage, double fraction) {
+      int quarter = static_cast<int>(fraction * 4.0);
+      if ((stage != last_stage || quarter != last_quarter) && seconds_since(bake_start) > 1.0) {
+        log << tag << "distance grid: " << stage << " " << 25 * quarter << " %\n" << std::flush;
+        last_stage = stage;
+        last_quarter = quarter;
+      }
+      return true;
+    };
+    box.textures.sdf =
+        bake_distance_grid(out.mesh, spec.box, spec.implicit, kMemoryBudgetBytes, progress);
     const auto& sdf = box.textures.sdf;
     log << tag << "distance grid " << dims_string(sdf.grid.dims) << ", voxel "
         << fmt("%.4g", sdf.grid.spacing) << ", band " << fmt("%.3g", sdf.band_voxels) << " voxels, "

@@ -26,7 +26,6 @@ constexpr double kMaxCoordinate = 1e12;
 constexpr double kMaxRotationDeg = 360.0;
 constexpr int kMaxImageSide = 8192;
 // Textures of all boxes together; checked at load time, before anything is allocated.
-constexpr std::uint64_t kMemoryBudgetBytes = std::uint64_t(4) << 30;
 
 // Deformer types of DESIGN.md that this release does not build yet, for a helpful message.
 constexpr const char* kLaterDeformers[] = {"peel", "incision", "box_cut", "points"};

@@ -2,6 +2,7 @@
 // names the file, the field, the value and what is allowed, and throws Error.
 #pragma once
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -40,6 +41,10 @@ struct RenderSettings {
   Eigen::Vector3d background{1, 1, 1};  // linear RGB in [0, 1]
   Eigen::Vector3d colour{0.8, 0.62, 0.45};  // surface albedo, linear RGB in [0, 1]
 };
+
+// The textures of all boxes of a scene together must fit in this many bytes; load_scene checks
+// it before anything is allocated, and the bakes are given the same budget.
+constexpr std::uint64_t kMemoryBudgetBytes = std::uint64_t(4) << 30;
 
 struct Scene {
   std::filesystem::path file;  // the scene file itself

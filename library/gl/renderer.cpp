@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -281,10 +282,12 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   raster.vec3("u_albedo", settings.colour);
   raster.i1("u_box_count", static_cast<int>(m.boxes.size()));
   for (size_t i = 0; i < m.boxes.size(); ++i) {
-    std::string idx = "[" + std::to_string(i) + "]";
+    char name[64];
     Eigen::Matrix4d to_box = m.boxes[i].data.box.local_to_object().inverse();
-    raster.mat4(("u_object_to_box" + idx).c_str(), to_box);
-    raster.vec3(("u_half_extents" + idx).c_str(), m.boxes[i].data.box.half_extents);
+    std::snprintf(name, sizeof name, "u_object_to_box[%zu]", i);
+    raster.mat4(name, to_box);
+    std::snprintf(name, sizeof name, "u_half_extents[%zu]", i);
+    raster.vec3(name, m.boxes[i].data.box.half_extents);
   }
   if (m.mesh_indices > 0) {
     glBindVertexArray(m.mesh_vao);
