@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Installs what raywarp needs from Debian 12's archive (only what is missing), then configures
-# and builds. Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
+# and builds. (zlib, blosc and Imath: OpenVDB's CMake module needs them and libopenvdb-dev does not pull them in.) Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
 packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboost-iostreams-dev
           libtbb-dev libassimp-dev libosmesa6-dev libgl-dev nlohmann-json3-dev libcli11-dev
-          libstb-dev libgtest-dev)
+          libstb-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
