@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs what raywarp needs from Debian 12's archive (only what is missing), then configures
-# and builds. (zlib, blosc and Imath: OpenVDB's CMake module needs them and libopenvdb-dev does not pull them in.) Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
+# and builds. zlib, blosc and Imath headers are listed because OpenVDB's CMake module needs
+# them and libopenvdb-dev does not pull them in.
+# Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
