@@ -1,5 +1,5 @@
 // Meshes made in the tests: an icosphere, a cube, and cutting holes, all counter-clockwise
-// seen from outside. Header only; shared by mesh_test, winding_test and implicit_test.
+// seen from outside. Header only; shared by the mesh, winding, implicit and reference tests.
 #pragma once
 #include <Eigen/Core>
 #include <Eigen/Geometry>

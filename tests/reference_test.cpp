@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "library/error.h"
+#include "tests/mesh_fixtures.h"
 
 namespace raywarp {
 namespace {
@@ -20,41 +21,6 @@ using Vec3 = Eigen::Vector3d;
 
 // ---------------------------------------------------------------------------------------------
 // Fixtures: an icosphere, its analytic distance grid and an identity or translating texture.
-
-// Icosphere of `level` midpoint subdivisions (20 * 4^level faces, counter-clockwise from
-// outside), vertices on the sphere.
-Mesh icosphere(int level, double radius, const Vec3& centre) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  std::vector<Eigen::Vector3i> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                                    {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                    {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                                    {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  for (Vec3& p : v) p.normalize();
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    auto midpoint = [&](int a, int b) {
-      auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return mid[key] = static_cast<int>(v.size()) - 1;
-    };
-    std::vector<Eigen::Vector3i> next;
-    for (const auto& tri : f) {
-      int a = midpoint(tri[0], tri[1]), b = midpoint(tri[1], tri[2]), c = midpoint(tri[2], tri[0]);
-      next.insert(next.end(), {{tri[0], a, c}, {tri[1], b, a}, {tri[2], c, b}, {a, b, c}});
-    }
-    f = std::move(next);
-  }
-  Mesh m;
-  m.V.resize(static_cast<Eigen::Index>(v.size()), 3);
-  m.F.resize(static_cast<Eigen::Index>(f.size()), 3);
-  for (size_t i = 0; i < v.size(); ++i) m.V.row(i) = (centre + radius * v[i]).transpose();
-  for (size_t i = 0; i < f.size(); ++i) m.F.row(i) = f[i].transpose();
-  return m;
-}
 
 struct Sphere {
   Vec3 centre;  // object space
@@ -309,7 +275,7 @@ void expect_same_render(const Image& raster, const Image& reference, double diam
 
 TEST(RasterVsReference, SphereInsideBoxIdentityDeformation) {
   const Sphere sphere{Vec3(0.1, -0.2, 0.05), 1.0};
-  const Mesh mesh = icosphere(5, sphere.radius, sphere.centre);
+  const Mesh mesh = fixtures::icosphere(sphere.radius, 5, sphere.centre);
   const Box box = make_box(Vec3(0.05, -0.1, 0.0), Vec3(1.3, 1.2, 1.25),
                            Eigen::AngleAxisd(0.5, Vec3(0.3, 1, -0.2).normalized()));
   for (int c = 0; c < mesh.V.rows(); ++c) ASSERT_TRUE(box.contains(mesh.V.row(c).transpose()));
@@ -330,7 +296,7 @@ TEST(RasterVsReference, SphereInsideBoxIdentityDeformation) {
 // ray cast inside; with D = 0 the result is the whole sphere again.
 TEST(RasterVsReference, HalfInBoxCompositesToWholeSphere) {
   const Sphere sphere{Vec3(0.0, 0.0, 0.0), 1.0};
-  const Mesh mesh = icosphere(5, sphere.radius, sphere.centre);
+  const Mesh mesh = fixtures::icosphere(sphere.radius, 5, sphere.centre);
   const Box box =
       make_box(Vec3(0.0, 0.6, 0.0), Vec3(1.3, 0.7, 1.3), Eigen::AngleAxisd(0.3, Vec3(0, 0, 1)));
   const std::vector<BoxTextures> boxes = {sphere_textures(box, sphere, 64)};
@@ -479,7 +445,7 @@ TEST(ReferenceGroundTruth, TrianglesClearOfTheBoxAreKeptAsTheyAre) {
 // Identity F: the split and subdivided mesh renders as the original, pixel for pixel and to
 // rounding in depth (every piece lies in its source triangle's plane).
 TEST(ReferenceGroundTruth, IdentityReproducesTheRender) {
-  const Mesh mesh = icosphere(3, 1.0, Vec3::Zero());
+  const Mesh mesh = fixtures::icosphere(1.0, 3, Vec3::Zero());
   const Box box = make_box(Vec3(0.3, 0.2, -0.1), Vec3(0.6, 0.5, 0.7),
                            Eigen::AngleAxisd(0.6, Vec3(2, 1, 1).normalized()));
   Mesh truth = ground_truth_mesh(
@@ -499,7 +465,7 @@ TEST(ReferenceGroundTruth, IdentityReproducesTheRender) {
 
 // A translation F inside a box that holds the whole sphere moves the whole sphere.
 TEST(ReferenceGroundTruth, TranslationMovesTheSilhouette) {
-  const Mesh mesh = icosphere(3, 1.0, Vec3::Zero());
+  const Mesh mesh = fixtures::icosphere(1.0, 3, Vec3::Zero());
   const Box box = make_box(Vec3(0.05, 0, 0), Vec3(1.2, 1.1, 1.3),
                            Eigen::AngleAxisd(0.8, Vec3(0, 1, 1).normalized()));
   const Vec3 shift_local(0.4, -0.1, 0.2);
