@@ -38,6 +38,10 @@ char axis_name(Axis a) {
   return 'z';
 }
 
+std::string face_name(Face f) {
+  return std::string(f.side > 0 ? "+" : "-") + axis_name(f.axis);
+}
+
 FoldReport measure_folds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                          int samples_per_axis) {
   if (samples_per_axis < 1)

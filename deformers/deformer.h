@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -18,6 +19,13 @@ namespace raywarp {
 
 enum class Axis { X = 0, Y = 1, Z = 2 };
 char axis_name(Axis a);
+
+// A face of the box: the axis it is normal to and its side (+1 or -1), written "+y", "-x".
+struct Face {
+  Axis axis = Axis::Y;
+  int side = 1;
+};
+std::string face_name(Face f);
 
 class Deformer {
  public:
@@ -33,6 +41,25 @@ class Deformer {
   // Whether F is the identity on each face of the box, in the order -x, +x, -y, +y, -z, +z.
   // Where the mesh crosses a face that is not, the surface tears (DESIGN "Seams").
   virtual std::array<bool, 6> identity_faces() const = 0;
+
+  // Cuts (Correa & Silver 2007, section 5). A cut deformer separates material along a surface
+  // (peel, incision) or removes it (box_cut). Its alpha map A(p'), in the deformed frame, is > 0
+  // inside the cut region (the gap the cut opens, or the removed part) and <= 0 elsewhere, and
+  // |A(p')| is a lower bound of the distance from p' to the boundary of the cut region, equal to
+  // it (or to it divided by a stated constant) near that boundary: A is a signed distance field
+  // of the cut geometry, so it doubles as the skipping distance (section 6.2) and its gradient
+  // is the cut face's normal (eq. 6). A is 1-Lipschitz.
+  // Inside the cut region p' has no preimage; there inverse() returns the continuation of the
+  // inverse of the nearer side, so the baked D stays smooth up to the middle of the gap (its
+  // jump lies where A > 0, masked by the cut). F(inverse(p')) = p' holds outside the cut.
+  virtual bool has_cut() const { return false; }
+  virtual double alpha(const Eigen::Vector3d& /*p_def*/) const {
+    return -std::numeric_limits<double>::infinity();
+  }
+  // True when F is the identity on all of space (a box cut removes material and moves none), so
+  // points outside the box are their own preimage and the ray caster may read the distance grid
+  // beyond the box faces (where a removed part leaves a cap).
+  virtual bool moves_nothing() const { return false; }
 };
 
 // Shortest decimal text that reads back as x ("360", "1e-06"), for messages.
