@@ -1,9 +1,14 @@
 // raywarp_bench: bake and frame times, medians over repeated runs (not a test).
 //   raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md]
-// For each mesh (the shipped bunny, and the Stanford dragon, 202K triangles) it places a twist
-// box over the middle 60 % of the mesh's height and a bend box around the whole mesh, and times
-// the distance-grid bake, the deformation bake, and GL frames at SIZE² (OSMesa unless another
-// context is current), each the median of N runs.
+// For each mesh (the shipped bunny, and the Stanford dragon, 202K triangles):
+//  1. bakes: a twist box over the middle 60 % of the mesh's height and a bend box around the
+//     whole mesh; times the distance-grid bake, the deformation bake, and GL frames at SIZE²
+//     (OSMesa), each the median of N runs;
+//  2. cuts, in the shape of Correa & Silver's Table 1: frame times of a continuous deformation
+//     (twist), a solid box cut (a quarter wedge) and a solid incision in the same box over the
+//     upper 55 % of the mesh, each without and with empty-space skipping.
+// --out FILE.md replaces the text between the markers <!-- bench:begin --> and
+// <!-- bench:end --> of FILE.md (or writes the file when it has none), keeping the rest.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -16,6 +21,7 @@
 
 #include "deformers/bend.h"
 #include "deformers/twist.h"
+#include "editor/pipeline.h"
 #include "library/gl/context.h"
 #include "library/gl/renderer.h"
 #include "library/implicit.h"
@@ -37,6 +43,113 @@ double time_ms(F&& f) {
   f();
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
+}
+
+// Median frame time of `frames` frames after one warm-up frame (shader compilation).
+double frame_median(gl::Renderer& renderer, const Camera& cam, int size,
+                    const RenderSettings& settings, int frames) {
+  gl::FrameStats fs;
+  renderer.render(cam, size, size, settings, &fs);
+  std::vector<double> t;
+  for (int f = 0; f < frames; ++f) {
+    renderer.render(cam, size, size, settings, &fs);
+    t.push_back(fs.milliseconds);
+  }
+  return median(t);
+}
+
+Camera framing_camera(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double widen) {
+  Camera cam;
+  Eigen::Vector3d c = 0.5 * (lo + hi);
+  double radius = 0.5 * (hi - lo).norm() * widen;
+  cam.target = c;
+  cam.eye = c + Eigen::Vector3d(0.25, 0.2, 1.0).normalized() * radius * 3.2;
+  cam.fov_y_deg = 40;
+  cam.near_plane = radius * 0.5;
+  cam.far_plane = radius * 10;
+  return cam;
+}
+
+struct CutRow {
+  std::string mesh;
+  long triangles;
+  double box_screen;  // fraction of the image the box's ray-cast region covers
+  double ms[3][2];    // [twist, box cut, incision][no skipping, skipping]
+};
+
+// Fraction of the pixels whose ray meets the box's ray-cast region.
+double screen_fraction(const Camera& cam, int size, const BoxTextures& b) {
+  const Eigen::AlignedBox3d region = ray_cast_region(b);
+  long n = 0;
+  for (int y = 0; y < size; y += 4)
+    for (int x = 0; x < size; x += 4) {
+      Ray r = cam.pixel_ray(x, y, size, size);
+      Eigen::Vector3d o = b.box.to_local(r.origin), d = b.box.direction_to_local(r.direction);
+      double t0 = 0, t1 = 1e300;
+      bool hit = true;
+      for (int a = 0; a < 3 && hit; ++a) {
+        double ta = (region.min()[a] - o[a]) / d[a], tb = (region.max()[a] - o[a]) / d[a];
+        t0 = std::max(t0, std::min(ta, tb));
+        t1 = std::min(t1, std::max(ta, tb));
+        hit = t0 <= t1;
+      }
+      n += hit;
+    }
+  return n / double(((size + 3) / 4) * ((size + 3) / 4));
+}
+
+CutRow cut_row(const std::string& name, const std::string& path, int frames, int size) {
+  Mesh mesh = load_mesh(path);
+  MeshStats stats = mesh_stats(mesh);
+  const Eigen::Vector3d lo = stats.bounds.min(), hi = stats.bounds.max(), ext = hi - lo;
+  Scene scene;
+  scene.mesh = path;
+  BoxSpec spec;
+  const Eigen::Vector3d bmin(lo.x() - 0.02 * ext.x(), lo.y() + 0.45 * ext.y(),
+                             lo.z() - 0.02 * ext.z());
+  const Eigen::Vector3d bmax(hi.x() + 0.02 * ext.x(), hi.y() + 0.02 * ext.y(),
+                             hi.z() + 0.02 * ext.z());
+  spec.box.centre = 0.5 * (bmin + bmax);
+  spec.box.half_extents = 0.5 * (bmax - bmin);
+  const Eigen::Vector3d& h = spec.box.half_extents;
+  CutRow row{name, static_cast<long>(stats.faces), 0.0, {}};
+  const Camera cam = framing_camera(lo, hi, 1.0);
+  for (int kind = 0; kind < 3; ++kind) {
+    DeformerSpec d;
+    if (kind == 0) {
+      d.type = "twist";
+      d.axis = 1;
+      d.angle_deg = 360;
+    } else if (kind == 1) {
+      d.type = "box_cut";
+      d.wedge_axis = 1;
+      d.wedge_angle_deg = 90;  // the quarter facing the camera
+    } else {
+      d.type = "incision";
+      d.axis = 0;
+      d.from_axis = 2;
+      d.from_side = 1;
+      d.depth = 1.2 * h.z();
+      d.opening = 0.3 * h.x();
+    }
+    spec.deformer = d;
+    spec.cut_mode = CutMode::Solid;
+    scene.boxes = {spec};
+    std::ostringstream log;
+    PreparedScene prepared = prepare_scene(scene, log);
+    gl::Renderer renderer;
+    renderer.set_mesh(prepared.mesh);
+    renderer.set_boxes(prepared.textures());
+    if (kind == 1) row.box_screen = screen_fraction(cam, size, prepared.boxes[0].textures);
+    for (int skip = 0; skip < 2; ++skip) {
+      RenderSettings settings;
+      settings.skipping = skip == 1;
+      row.ms[kind][skip] = frame_median(renderer, cam, size, settings, frames);
+    }
+    std::fprintf(stderr, "  %-28s frame %.1f ms, skipping %.1f ms\n",
+                 prepared.boxes[0].deformer->describe().c_str(), row.ms[kind][0], row.ms[kind][1]);
+  }
+  return row;
 }
 
 struct Row {
@@ -109,6 +222,7 @@ int main(int argc, char** argv) {
         def_t.push_back(time_ms(
             [&] { tex.deformation = bake_deformation(*deformer, box.half_extents, def_res); }));
       }
+      tex.lipschitz = displacement_lipschitz(*deformer, tex.deformation);
       gl::Renderer renderer;
       renderer.set_mesh(mesh);
       renderer.set_boxes({tex});
@@ -153,11 +267,52 @@ int main(int argc, char** argv) {
                   r.def_res, r.def_ms, r.def_mib, r.frame_ms);
     table << line;
   }
+  std::vector<CutRow> cut_rows;
+  for (const auto& [name, path] : meshes) {
+    std::cerr << name << ": cuts\n";
+    cut_rows.push_back(cut_row(name, path, frames, size));
+  }
+  table << "\n### Cuts and empty-space skipping (Correa & Silver's Table 1)\n\n"
+        << "Frame ms at " << size << "x" << size << ", medians of " << frames
+        << " frames, one view; the box spans the upper 55 % of the mesh and covers the "
+           "stated share of the image. Continuous: twist 360\u00b0 about y. Cut: solid box cut "
+           "of the quarter wedge facing the camera. Incision: solid, normal x, from +z. "
+           "ESK: empty-space skipping (`render.skipping`).\n\n"
+        << "| mesh | triangles | box on screen | continuous | continuous ESK | cut (no ESK) | "
+           "cut (ESK) | cut speed-up | incision (no ESK) | incision (ESK) | incision speed-up "
+           "|\n"
+        << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const auto& r : cut_rows) {
+    std::snprintf(line, sizeof line,
+                  "| %s | %ld | %.0f %% | %.1f | %.1f | %.1f | %.1f | %.2fx | %.1f | %.1f | "
+                  "%.2fx |\n",
+                  r.mesh.c_str(), r.triangles, 100 * r.box_screen, r.ms[0][0], r.ms[0][1],
+                  r.ms[1][0], r.ms[1][1], r.ms[1][0] / r.ms[1][1], r.ms[2][0], r.ms[2][1],
+                  r.ms[2][0] / r.ms[2][1]);
+    table << line;
+  }
   std::cout << table.str();
   if (!out.empty()) {
-    std::ofstream f(out);
-    f << "# Bake and frame times\n\n" << table.str();
-    if (!f) {
+    const std::string begin = "<!-- bench:begin -->", end = "<!-- bench:end -->";
+    std::string text;
+    {
+      std::ifstream in(out);
+      std::stringstream buffer;
+      buffer << in.rdbuf();
+      text = buffer.str();
+    }
+    const size_t b = text.find(begin), e = text.find(end);
+    const std::string block = begin + "\n" + table.str() + end;
+    if (b != std::string::npos && e != std::string::npos && e > b)
+      text = text.substr(0, b) + block + text.substr(e + end.size());
+    else
+      text = "# Bake and frame times\n\n" + block + "\n";
+    const std::string tmp = out + ".tmp";
+    std::ofstream f(tmp);
+    f << text;
+    f.close();
+    if (!f || std::rename(tmp.c_str(), out.c_str()) != 0) {
+      std::remove(tmp.c_str());
       std::cerr << "raywarp_bench: cannot write " << out << "\n";
       return 2;
     }

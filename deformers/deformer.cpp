@@ -38,9 +38,7 @@ char axis_name(Axis a) {
   return 'z';
 }
 
-std::string face_name(Face f) {
-  return std::string(f.side > 0 ? "+" : "-") + axis_name(f.axis);
-}
+std::string face_name(Face f) { return std::string(f.side > 0 ? "+" : "-") + axis_name(f.axis); }
 
 FoldReport measure_folds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                          int samples_per_axis) {
@@ -84,6 +82,29 @@ Eigen::AlignedBox3d face_lattice_bounds(const Deformer& deformer, const Eigen::V
   return bounds;
 }
 
+// Runs body(k) for k in [0, slices) on all hardware threads (a slice goes to one thread only), and
+// rethrows the first exception a body threw.
+template <class Body>
+void for_each_slice(int slices, const Body& body) {
+  std::atomic<int> next_slice{0};
+  const int threads =
+      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::max(slices, 1));
+  std::vector<std::thread> workers;
+  std::vector<std::exception_ptr> errors(threads);
+  for (int t = 0; t < threads; ++t)
+    workers.emplace_back([&, t]() {
+      try {
+        for (int k = next_slice++; k < slices; k = next_slice++) body(k);
+      } catch (...) {
+        errors[t] = std::current_exception();
+        next_slice = slices;
+      }
+    });
+  for (std::thread& worker : workers) worker.join();
+  for (const std::exception_ptr& error : errors)
+    if (error) std::rethrow_exception(error);
+}
+
 }  // namespace
 
 // F is continuous, so the boundary of F(box) lies in F(boundary of box) and the extremes of F(box)
@@ -106,6 +127,17 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
     bounds.extend(finer);
     if (growth <= 1e-4 * bounds.diagonal().norm()) break;
   }
+  // A cut makes F discontinuous: the images of the cut surface (inside the box) may reach beyond
+  // those of the faces (a peeled flap's underside is its outermost layer). Sample the volume too.
+  if (deformer.has_cut()) {
+    constexpr int n = 96;
+    for (int k = 0; k <= n; ++k)
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+          const Eigen::Vector3d f(2.0 * i / n - 1.0, 2.0 * j / n - 1.0, 2.0 * k / n - 1.0);
+          bounds.extend(deformer.forward(f.cwiseProduct(half_extents)));
+        }
+  }
   bounds.min().array() -= pad;
   bounds.max().array() += pad;
   return bounds;
@@ -125,38 +157,19 @@ DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vecto
   Grid3<Eigen::Vector4f>& grid = texture.grid;
   grid = make_grid_over(bounds.min(), bounds.max(), resolution, Eigen::Vector4f::Zero().eval());
 
-  // Texels go by z-slices to the threads; a slice is written by one thread only.
-  std::atomic<int> next_slice{0};
   std::atomic<bool> all_finite{true};
-  auto bake_slices = [&]() {
-    for (int k = next_slice++; k < grid.dims.z(); k = next_slice++)
-      for (int j = 0; j < grid.dims.y(); ++j)
-        for (int i = 0; i < grid.dims.x(); ++i) {
-          const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
-          const Eigen::Vector3d p = deformer.inverse(p_def);
-          const bool inside = (p.cwiseAbs().array() <= half_extents.array()).all();
-          Eigen::Vector4f texel;
-          texel << (p - p_def).cast<float>(), inside ? 1.0f : 0.0f;
-          if (!texel.allFinite()) all_finite = false;
-          grid.at(i, j, k) = texel;
-        }
-  };
-  const int threads =
-      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, grid.dims.z());
-  std::vector<std::thread> workers;
-  std::vector<std::exception_ptr> errors(threads);
-  for (int t = 0; t < threads; ++t)
-    workers.emplace_back([&, t]() {
-      try {
-        bake_slices();
-      } catch (...) {
-        errors[t] = std::current_exception();
-        next_slice = grid.dims.z();
+  for_each_slice(grid.dims.z(), [&](int k) {
+    for (int j = 0; j < grid.dims.y(); ++j)
+      for (int i = 0; i < grid.dims.x(); ++i) {
+        const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
+        const Eigen::Vector3d p = deformer.inverse(p_def);
+        const bool inside = (p.cwiseAbs().array() <= half_extents.array()).all();
+        Eigen::Vector4f texel;
+        texel << (p - p_def).cast<float>(), inside ? 1.0f : 0.0f;
+        if (!texel.allFinite()) all_finite = false;
+        grid.at(i, j, k) = texel;
       }
-    });
-  for (std::thread& worker : workers) worker.join();
-  for (const std::exception_ptr& error : errors)
-    if (error) std::rethrow_exception(error);
+  });
   if (!all_finite)
     throw Error("bake_deformation: " + deformer.describe() +
                 ": the inverse displacement is not finite at some texels");
@@ -164,6 +177,72 @@ DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vecto
   texture.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return texture;
+}
+
+AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution) {
+  if (!deformer.has_cut()) throw Error("bake_alpha: " + deformer.describe() + " has no cut");
+  if (resolution < 1)
+    throw Error("bake_alpha: resolution = " + std::to_string(resolution) + ": must be >= 1");
+  const auto start = std::chrono::steady_clock::now();
+  AlphaMap map;
+  Grid3<float>& grid = map.grid;
+  grid = make_grid_over(region.min(), region.max(), resolution, 0.0f);
+  std::atomic<bool> all_finite{true};
+  for_each_slice(grid.dims.z(), [&](int k) {
+    for (int j = 0; j < grid.dims.y(); ++j)
+      for (int i = 0; i < grid.dims.x(); ++i) {
+        const float a = static_cast<float>(deformer.alpha(grid.texel_centre(i, j, k)));
+        if (!std::isfinite(a)) all_finite = false;
+        grid.at(i, j, k) = a;
+      }
+  });
+  if (!all_finite)
+    throw Error("bake_alpha: " + deformer.describe() +
+                ": the alpha map is not finite at some texels");
+  map.bake_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return map;
+}
+
+double displacement_lipschitz(const Deformer& deformer, const DeformationTexture& texture) {
+  const Grid3<Eigen::Vector4f>& grid = texture.grid;
+  const Eigen::Vector3i cells = (grid.dims - Eigen::Vector3i::Ones()).cwiseMax(0);
+  std::vector<double> slice_max(std::max(cells.z(), 1), 0.0);
+  const bool cut = deformer.has_cut();
+  for_each_slice(cells.z(), [&](int k) {
+    double worst = 0.0;
+    for (int j = 0; j < cells.y(); ++j)
+      for (int i = 0; i < cells.x(); ++i) {
+        const Eigen::Vector3d centre =
+            grid.texel_centre(i, j, k) + Eigen::Vector3d::Constant(0.5 * grid.spacing);
+        if (cut && deformer.alpha(centre) > 0.0) continue;
+        double sum = 0.0;
+        for (int a = 0; a < 3; ++a) {
+          const int u = (a + 1) % 3, v = (a + 2) % 3;
+          double m = 0.0;
+          for (int du = 0; du < 2; ++du)
+            for (int dv = 0; dv < 2; ++dv) {
+              Eigen::Vector3i c0(i, j, k);
+              c0[u] += du;
+              c0[v] += dv;
+              Eigen::Vector3i c1 = c0;
+              c1[a] += 1;
+              const Eigen::Vector3f diff = grid.at(c1.x(), c1.y(), c1.z()).head<3>() -
+                                           grid.at(c0.x(), c0.y(), c0.z()).head<3>();
+              m = std::max(m, static_cast<double>(diff.norm()));
+            }
+          m /= grid.spacing;
+          sum += m * m;
+        }
+        worst = std::max(worst, std::sqrt(sum));
+      }
+    slice_max[k] = worst;
+  });
+  double worst = 0.0;
+  for (double w : slice_max) worst = std::max(worst, w);
+  // Float rounding of the texels (relative 2^-24 of |D|, divided by the spacing) is far below
+  // this margin.
+  return (1.0 + worst) * (1.0 + 1e-5);
 }
 
 }  // namespace raywarp

@@ -85,4 +85,14 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
 DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                                     int resolution);
 
+// Bakes the alpha map A = deformer.alpha at the texel centres of a grid over `region` (box
+// frame), `resolution` texels along its longest side. Requires deformer.has_cut().
+AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution);
+
+// A bound of ||I + J_D|| for the trilinear interpolation of `texture`, over every cell whose
+// centre lies outside the cut (deformer.alpha <= 0): within a cell, dD/dx_i is a bilinear blend
+// of the four cell edges' differences along x_i, so |dD/dx_i| <= m_i = max edge |dD| / spacing,
+// and ||I + J_D||_2 <= 1 + ||J_D||_F <= 1 + sqrt(m_x^2 + m_y^2 + m_z^2).
+double displacement_lipschitz(const Deformer& deformer, const DeformationTexture& texture);
+
 }  // namespace raywarp

@@ -1,10 +1,14 @@
 #include "editor/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ostream>
 
 #include "deformers/bend.h"
+#include "deformers/box_cut.h"
+#include "deformers/incision.h"
+#include "deformers/peel.h"
 #include "deformers/twist.h"
 #include "library/error.h"
 #include "library/implicit.h"
@@ -45,10 +49,27 @@ std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_ind
       return make_twist(spec.box.half_extents, axis, spec.deformer.angle_deg);
     if (spec.deformer.type == "bend")
       return make_bend(spec.box.half_extents, axis, spec.deformer.angle_deg);
+    const DeformerSpec& d = spec.deformer;
+    const Face from{static_cast<Axis>(d.from_axis), d.from_side};
+    if (d.type == "peel")
+      return make_peel(spec.box.half_extents, axis, from, d.angle_deg, d.thickness, d.radius,
+                       d.hinge);
+    if (d.type == "incision")
+      return make_incision(spec.box.half_extents, axis, from, d.depth, d.opening);
+    if (d.type == "box_cut") {
+      BoxCutParams params;
+      params.sub_min = d.sub_min;
+      params.sub_max = d.sub_max;
+      params.wedge_axis = static_cast<Axis>(d.wedge_axis);
+      params.wedge_from_deg = d.wedge_from_deg;
+      params.wedge_angle_deg = d.wedge_angle_deg;
+      return make_box_cut(spec.box.half_extents, params);
+    }
   } catch (const Error& e) {
     throw Error(field + "." + e.what());
   }
-  throw Error(field + ".type = \"" + spec.deformer.type + "\": must be one of twist, bend");
+  throw Error(field + ".type = \"" + spec.deformer.type +
+              "\": must be one of twist, bend, peel, incision, box_cut");
 }
 
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
@@ -110,20 +131,60 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
       }
       return true;
     };
+    // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
+    // the grid holds only +-background, must reach past tau.
+    ImplicitSpec implicit = spec.implicit;
+    if (box.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell) {
+      const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
+      const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;
+      if (needed > implicit.band_voxels) {
+        log << tag << "narrow band widened from " << fmt("%g", implicit.band_voxels) << " to "
+            << fmt("%g", needed) << " voxels to hold the shell thickness\n";
+        implicit.band_voxels = needed;
+      }
+    }
     box.textures.sdf =
-        bake_distance_grid(out.mesh, spec.box, spec.implicit, kMemoryBudgetBytes, progress);
+        bake_distance_grid(out.mesh, spec.box, implicit, kMemoryBudgetBytes, progress);
     const auto& sdf = box.textures.sdf;
     log << tag << "distance grid " << dims_string(sdf.grid.dims) << ", voxel "
         << fmt("%.4g", sdf.grid.spacing) << ", band " << fmt("%.3g", sdf.band_voxels) << " voxels, "
         << sdf.active_voxels << " in band, " << fmt("%.1f", sdf.grid.size() * 4.0 / (1 << 20))
         << " MiB, sign by " << sdf.sign_method << " (" << fmt("%.2f", sdf.bake_seconds) << " s)\n";
 
-    box.textures.deformation =
-        bake_deformation(*box.deformer, spec.box.half_extents, spec.deformation_resolution);
-    const auto& def = box.textures.deformation;
-    log << tag << "deformation texture " << dims_string(def.grid.dims) << ", texel "
-        << fmt("%.4g", def.grid.spacing) << ", " << fmt("%.1f", def.grid.size() * 16.0 / (1 << 20))
-        << " MiB (" << fmt("%.2f", def.bake_seconds) << " s)\n";
+    BoxTextures& tex = box.textures;
+    tex.moves_nothing = box.deformer->moves_nothing();
+    // A deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
+    // bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
+    tex.deformation = bake_deformation(*box.deformer, spec.box.half_extents,
+                                       tex.moves_nothing ? 2 : spec.deformation_resolution);
+    const auto& def = tex.deformation;
+    if (tex.moves_nothing) {
+      const Eigen::Vector3d pad = Eigen::Vector3d::Constant(kCapVoxels * sdf.grid.spacing);
+      tex.region = Eigen::AlignedBox3d((-spec.box.half_extents - pad).cwiseMax(sdf.grid.origin),
+                                       (spec.box.half_extents + pad).cwiseMin(sdf.grid.upper()));
+      tex.lipschitz = 1.0;
+      log << tag << "no displacement; rays cast over the box and " << fmt("%g", kCapVoxels)
+          << " voxels beyond (" << fmt("%.2f", def.bake_seconds) << " s)\n";
+    } else {
+      tex.region = Eigen::AlignedBox3d(def.grid.origin, def.grid.upper());
+      tex.lipschitz = displacement_lipschitz(*box.deformer, def);
+      log << tag << "deformation texture " << dims_string(def.grid.dims) << ", texel "
+          << fmt("%.4g", def.grid.spacing) << ", "
+          << fmt("%.1f", def.grid.size() * 16.0 / (1 << 20))
+          << " MiB, |I + J_D| <= " << fmt("%.3g", tex.lipschitz) << " ("
+          << fmt("%.2f", def.bake_seconds) << " s)\n";
+    }
+    if (box.deformer->has_cut()) {
+      tex.has_cut = true;
+      tex.cut_mode = spec.cut_mode;
+      tex.shell_thickness = spec.shell_thickness;
+      tex.alpha = bake_alpha(*box.deformer, tex.region, spec.alpha_resolution);
+      const auto& a = tex.alpha;
+      log << tag << cut_mode_name(spec.cut_mode) << " cut, alpha map " << dims_string(a.grid.dims)
+          << ", texel " << fmt("%.4g", a.grid.spacing) << ", "
+          << fmt("%.1f", a.grid.size() * 4.0 / (1 << 20)) << " MiB (" << fmt("%.2f", a.bake_seconds)
+          << " s)\n";
+    }
 
     box.folds = measure_folds(*box.deformer, spec.box.half_extents);
     if (box.folds.folds())
@@ -135,7 +196,7 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
       box.warnings.push_back(
           "the mesh crosses box face " + face +
           ", where the deformation is not the identity: the surface tears there");
-    double ray_length = def.grid.extent().norm();
+    double ray_length = tex.region.diagonal().norm();
     double reach = scene.render.max_steps * scene.render.step_voxels * sdf.grid.spacing;
     if (reach < ray_length)
       box.warnings.push_back("render.max_steps = " + std::to_string(scene.render.max_steps) +

@@ -7,6 +7,12 @@
 
 namespace raywarp {
 
+// A half-space n . p <= offset (n unit), in some box's local frame.
+struct HalfSpace {
+  Eigen::Vector3d normal;
+  double offset = 0.0;
+};
+
 struct Box {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   Eigen::Vector3d half_extents = Eigen::Vector3d::Ones();

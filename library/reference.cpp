@@ -26,9 +26,21 @@ double srgb_encode(double c) {
 }
 
 // Headlight: the light comes from the eye along the ray.
-Vec3 shade(const RenderSettings& settings, const Vec3& normal, const Vec3& ray_direction) {
+Vec3 shade(const Vec3& albedo, const Vec3& normal, const Vec3& ray_direction) {
   double lambert = std::max(normal.dot(-ray_direction), 0.0);
-  return settings.colour * (0.2 + 0.8 * lambert);
+  return albedo * (0.2 + 0.8 * lambert);
+}
+
+Vec3 albedo_of(const RenderSettings& settings, HitKind kind) {
+  switch (kind) {
+    case HitKind::Inside:
+      return settings.inside_colour;
+    case HitKind::CutFace:
+      return settings.cut_colour;
+    case HitKind::Surface:
+      break;
+  }
+  return settings.colour;
 }
 
 void put_colour(Image& image, int x, int y, const Vec3& linear_rgb) {
@@ -155,6 +167,32 @@ class TriangleBvh {
     return best;
   }
 
+  // The number of triangles the ray meets at parameters t > t_from.
+  int count_after(const Vec3& o, const Vec3& d, double t_from) const {
+    int count = 0;
+    if (nodes_.empty()) return count;
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& node = nodes_[stack[--top]];
+      double t0 = t_from, t1 = kInfinity;
+      if (!clip_to_aabb(o, d, node.lower, node.upper, t0, t1)) continue;
+      if (node.count > 0) {
+        for (int k = node.first; k < node.first + node.count; ++k) {
+          int f = order_[k];
+          auto h =
+              intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1), mesh_.vertex(f, 2));
+          if (h && h->t > t_from) ++count;
+        }
+      } else {
+        stack[top++] = node.right;
+        stack[top++] = node.left;
+      }
+    }
+    return count;
+  }
+
  private:
   static constexpr int kLeafSize = 4;
   struct Node {
@@ -206,24 +244,63 @@ class TriangleBvh {
 // ---------------------------------------------------------------------------------------------
 // The ray cast (Correa & Silver 2007, section 3), as in shaders/raycast.frag.glsl.
 
-// g(p') = f(p' + D(p')): the undeformed implicit surface seen through the inverse displacement
-// (section 3, warping then sampling); -background where p' has no preimage in the box.
-double deformed_distance(const BoxTextures& box, const Vec3& p_def) {
-  Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
-  if (dv.w() < 0.5) return -box.sdf.background;
-  Vec3 p = p_def + dv.head<3>();
-  if (!box.box.contains_local(p)) return -box.sdf.background;
-  return box.sdf.grid.sample(p).value();
+// One sample of the ray, as the shader's Sample: f at the preimage (valid when it lies in the
+// box), and the alpha map A.
+struct Sample {
+  double f = 0.0, a = -1.0;
+  bool valid = false;
+};
+
+// `beyond_ok`: the previous sample lay in the box, so (when D = 0) a point beyond it is read.
+Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
+  Sample s;
+  if (box.moves_nothing) {
+    s.valid = beyond_ok || box.box.contains_local(p_def);
+    s.f = s.valid ? box.sdf.grid.sample(p_def).value() : -box.sdf.background;
+  } else {
+    Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
+    Vec3 p = p_def + dv.head<3>();
+    s.valid = dv.w() >= 0.5 && box.box.contains_local(p);
+    s.f = s.valid ? box.sdf.grid.sample(p).value() : -box.sdf.background;
+  }
+  if (box.has_cut) s.a = box.alpha.grid.sample(p_def).value();
+  return s;
+}
+
+// The surface function: f, or eq. 7's shell f^ = tau - f where f > tau / 2.
+double surface(const BoxTextures& box, double f) {
+  return box.has_cut && box.cut_mode == CutMode::ThickShell ? std::min(f, box.shell_thickness - f)
+                                                            : f;
+}
+
+// The solid the ray looks for (> 0 inside): the surface minus the cut.
+double value(const BoxTextures& box, const Sample& s) {
+  if (!s.valid) return -box.sdf.background;
+  if (box.has_cut && box.cut_mode != CutMode::Hollow) return std::min(surface(box, s.f), -s.a);
+  return s.f;
+}
+
+constexpr double kSqrt3 = 1.7320508075688772;
+
+// How far the ray may advance without passing a hit (the shader's skip_distance).
+double skip_distance(const BoxTextures& box, const Sample& s) {
+  if (!s.valid) return 0.0;
+  if (box.has_cut && s.a > 0.0) return s.a / kSqrt3;
+  double room = box.has_cut && box.cut_mode == CutMode::Hollow ? std::abs(s.f) : -surface(box, s.f);
+  double skip = room / (kSqrt3 * box.lipschitz);
+  if (box.has_cut && !box.moves_nothing) skip = std::min(skip, -s.a - cut_margin(box));
+  return skip;
 }
 
 Vec3 displacement(const BoxTextures& box, const Vec3& p_def) {
+  if (box.moves_nothing) return Vec3::Zero();
   return box.deformation.grid.sample(p_def).head<3>();
 }
 
-// Outward unit normal of the deformed surface, eq. 5: (I + J_D)^T n(p' + D(p')) with n = -grad f
+// Outward normal of the deformed surface, eq. 5: (I + J_D)^T n(p' + D(p')) with n = -grad f
 // (f > 0 inside), both derivatives by central differences of the textures at their own
-// spacing. Falls back to -ray_direction where that vector vanishes.
-Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def, const Vec3& ray_direction) {
+// spacing (not normalised).
+Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def) {
   Vec3 p = p_def + displacement(box, p_def);
   double hf = box.sdf.grid.spacing, hd = box.deformation.grid.spacing;
   Vec3 grad_f;
@@ -234,18 +311,31 @@ Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def, const Vec3& ray_
         (box.sdf.grid.sample(p + ef).value() - box.sdf.grid.sample(p - ef).value()) / (2.0 * hf);
     jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd);
   }
-  Vec3 n = (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
-  double len = n.norm();
-  return len > 0.0 && std::isfinite(len) ? Vec3(n / len) : Vec3(-ray_direction);
+  return (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
 }
 
-// The parameter range of a local-frame ray inside the deformation texture's region, clipped to
+// The cut face's outward normal (into the cut): grad A (eq. 6), not normalised.
+Vec3 alpha_gradient(const BoxTextures& box, const Vec3& p_def) {
+  const double h = box.alpha.grid.spacing;
+  Vec3 g;
+  for (int a = 0; a < 3; ++a)
+    g[a] = box.alpha.grid.sample(p_def + h * Vec3::Unit(a)).value() -
+           box.alpha.grid.sample(p_def - h * Vec3::Unit(a)).value();
+  return g;
+}
+
+Vec3 unit_or(const Vec3& n, const Vec3& fallback) {
+  double len = n.norm();
+  return len > 0.0 && std::isfinite(len) ? Vec3(n / len) : fallback;
+}
+
+// The parameter range of a local-frame ray inside the box's ray-cast region, clipped to
 // [t_min, t_max]. Empty when t0 >= t1.
 std::pair<double, double> texture_range(const BoxTextures& box, const Vec3& o, const Vec3& d,
                                         double t_min, double t_max) {
   double t0 = t_min, t1 = t_max;
-  const auto& grid = box.deformation.grid;
-  if (!clip_to_aabb(o, d, grid.origin, grid.upper(), t0, t1)) return {kInfinity, -kInfinity};
+  const Eigen::AlignedBox3d region = ray_cast_region(box);
+  if (!clip_to_aabb(o, d, region.min(), region.max(), t0, t1)) return {kInfinity, -kInfinity};
   return {t0, t1};
 }
 
@@ -498,56 +588,101 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
                                    const Eigen::Vector3d& direction, double t0, double t1,
                                    const RenderSettings& settings) {
   if (!(t0 < t1)) return std::nullopt;
-  auto g = [&](double t) { return deformed_distance(box, origin + t * direction); };
-  // Linear search (eq. 3) with a fixed step, bounded by max_steps.
+  const Vec3& o = origin;
+  const Vec3& d = direction;
+  const bool hollow = box.has_cut && box.cut_mode == CutMode::Hollow;
+  auto at = [&](double t, bool beyond_ok) { return sample_at(box, o + t * d, beyond_ok); };
+  // Linear search (eq. 3), bounded by max_steps.
   const double step = settings.step_voxels * box.sdf.grid.spacing;
-  // The samples are the regular ones, t0 + i * step, merged with one just before each crossing
-  // of a box face plane: that catches slivers of S_D thinner than a step that end on a face
-  // (at the seam with the raster pass, where a missed sliver would show the mesh's inside).
+  // Besides the regular samples (or skips), one just before each crossing of a box face plane:
+  // that catches slivers of S_D thinner than a step that end on a face (at the seam with the
+  // raster pass, where a missed sliver would show the mesh's inside).
   const double before = 1e-3 * step;
   const double seam = kSeamVoxels * box.sdf.grid.spacing;
   double crossings[6];
   for (int a = 0; a < 3; ++a)
     for (int s = 0; s < 2; ++s)
       crossings[2 * a + s] =
-          direction[a] != 0.0
-              ? ((s ? 1.0 : -1.0) * box.box.half_extents[a] - origin[a]) / direction[a] - before
-              : -kInfinity;
-  double lo = t0, hi = t0, regular = t0 + step;
-  bool hit = g(t0) > 0.0;  // a ray that starts inside the surface hits at t0
-  for (int i = 1; i <= settings.max_steps + 6 && !hit; ++i) {
-    lo = hi;
+          d[a] != 0.0 ? ((s ? 1.0 : -1.0) * box.box.half_extents[a] - o[a]) / d[a] - before
+                      : -kInfinity;
+  double t = t0, lo = t0, hi = t0;
+  bool was_in_box = box.box.contains_local(o + t0 * d);
+  Sample s = at(t0, false);
+  bool hit = !hollow && value(box, s) > 0.0, front = true;
+  for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
+    double advance = step;
+    if (settings.skipping) advance = std::max(advance, skip_distance(box, s));
     double next_crossing = kInfinity;
     for (double tc : crossings)
-      next_crossing = tc > lo ? std::min(next_crossing, tc) : next_crossing;
-    bool at_face = next_crossing < std::min(regular, t1);
-    if (at_face) {
-      hi = next_crossing;
+      next_crossing = tc > t ? std::min(next_crossing, tc) : next_crossing;
+    const double target = std::min(t + advance, t1);
+    const bool at_face = next_crossing < target;
+    const double tn = at_face ? next_crossing : target;
+    const Vec3 pn = o + tn * d;
+    const Sample sn = at(tn, was_in_box);
+    if (hollow) {
+      // A thin shell: any change of sign of f, kept where it lies outside the cut (5.1.1).
+      if (s.valid && sn.valid && (s.f > 0.0) != (sn.f > 0.0)) {
+        const bool inside = s.f > 0.0;
+        double l = t, r = tn;
+        for (int k = 0; k < settings.refine_steps; ++k) {
+          double mid = 0.5 * (l + r);
+          ((at(mid, true).f > 0.0) == inside ? l : r) = mid;
+        }
+        if (box.alpha.grid.sample(o + 0.5 * (l + r) * d).value() <= 0.0) {
+          hit = true;
+          front = !inside;
+          lo = l;
+          hi = r;
+        }
+      }
+      if (!hit && at_face && s.valid && sn.valid && s.f <= 0.0 && sn.f > -seam && sn.a <= 0.0) {
+        hit = true;
+        lo = hi = tn;
+      }
     } else {
-      hi = std::min(regular, t1);
-      regular += step;
+      const double v = value(box, sn);
+      if (v > 0.0) {
+        hit = true;
+        lo = t;
+        hi = tn;
+      } else if (at_face && v > -seam) {
+        // At a face the implicit surface may lie up to about a voxel inside the mesh that the
+        // raster pass draws beyond the face: within `seam` of it counts as the hit, so no crack
+        // opens between the passes.
+        hit = true;
+        lo = hi = tn;
+      }
     }
-    double value = g(hi);
-    hit = value > 0.0;
-    // At a face the implicit surface may lie up to a fraction of a voxel inside the mesh that
-    // the raster pass draws beyond the face (up to about a voxel): within `seam` of it counts as
-    // the hit, so no crack opens between the passes.
-    if (at_face && !hit && value > -seam) {
-      hit = true;
-      lo = hi;
-    }
-    if (hi >= t1) break;
+    t = tn;
+    s = sn;
+    was_in_box = box.box.contains_local(pn);
   }
   if (!hit) return std::nullopt;
-  // Binary refinement between the last sample outside and the first inside.
-  for (int i = 0; i < settings.refine_steps; ++i) {
-    double mid = 0.5 * (lo + hi);
-    (g(mid) > 0.0 ? hi : lo) = mid;
-  }
+  if (!hollow)  // binary refinement between the last sample outside and the first inside
+    for (int i = 0; i < settings.refine_steps; ++i) {
+      double mid = 0.5 * (lo + hi);
+      (value(box, at(mid, true)) > 0.0 ? hi : lo) = mid;
+    }
   RayHit out;
   out.t = 0.5 * (lo + hi);
-  out.point = origin + out.t * direction;
-  out.normal = deformed_normal(box, out.point, direction);
+  out.point = o + out.t * d;
+  Vec3 normal = deformed_normal(box, out.point);
+  if (hollow && !front) {
+    normal = -normal;
+    out.kind = HitKind::Inside;
+  } else if (box.has_cut && !hollow) {
+    // Eq. 6: on the object's surface the normal of eq. 5, on the cut face grad A.
+    const Sample sh = at(out.t, true);
+    if (surface(box, sh.f) > -sh.a) {
+      normal = alpha_gradient(box, out.point);
+      out.kind = HitKind::CutFace;
+    } else if (box.cut_mode == CutMode::ThickShell && sh.f > 0.5 * box.shell_thickness) {
+      normal = -normal;
+      out.kind = HitKind::Inside;
+    }
+  }
+  out.normal = unit_or(normal, -d);
   return out;
 }
 
@@ -558,11 +693,14 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
   Image image(width, height);
   const TriangleBvh bvh(mesh);
   const auto normals = vertex_normals(mesh);
+  const bool any_cut =
+      std::any_of(boxes.begin(), boxes.end(), [](const BoxTextures& b) { return b.has_cut; });
   parallel_for(height, [&](int y) {
     for (int x = 0; x < width; ++x) {
       Ray ray = camera.pixel_ray(x, y, width, height);
       double best_t = kInfinity;
       Vec3 normal = -ray.direction;
+      HitKind kind = HitKind::Surface;
       // The mesh where it lies outside every box (raster pass).
       auto outside_boxes = [&](double t) {
         Vec3 p = ray.origin + t * ray.direction;
@@ -579,6 +717,13 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
           n = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
         }
         if (n.norm() > 0.0) normal = n.normalized();
+        // With a cut, a back face (the mesh is oriented outwards) is the inside of the shell.
+        const Vec3 a = mesh.vertex(h->face, 0);
+        const Vec3 geometric = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+        if (any_cut && geometric.dot(ray.direction) > 0.0) {
+          kind = HitKind::Inside;
+          normal = -normal;
+        }
       }
       // The boxes (ray-cast pass); the local frame is rigid, so t is the same.
       for (const BoxTextures& b : boxes) {
@@ -587,6 +732,7 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
         if (auto h = ray_cast_box(b, o, d, t0, t1, settings); h && h->t < best_t) {
           best_t = h->t;
           normal = b.box.direction_to_object(h->normal);
+          kind = h->kind;
         }
       }
       if (best_t == kInfinity) {
@@ -595,7 +741,7 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
       }
       Vec3 p = ray.origin + best_t * ray.direction;
       image.depth[static_cast<size_t>(y) * width + x] = static_cast<float>(camera.depth_of(p));
-      put_colour(image, x, y, shade(settings, normal, ray.direction));
+      put_colour(image, x, y, shade(albedo_of(settings, kind), normal, ray.direction));
     }
   });
   return image;
@@ -603,7 +749,7 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
 
 Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
                        const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
-                       double max_edge) {
+                       double max_edge, int split_axis) {
   if (!(max_edge > 0.0) || !std::isfinite(max_edge))
     throw Error("ground_truth_mesh: max_edge = " + std::to_string(max_edge) +
                 ": must be a finite number > 0");
@@ -613,10 +759,17 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
     out.vertices.push_back(mesh.V.row(v).transpose());
   const Vec3 half = box.half_extents;
   auto deform = [&](const Vec3& q) { return box.to_object(forward_local(q)); };
+  // Pieces on the negative side of the split plane: F as the limit from that side.
+  const double nudge = 1e-9 * half.maxCoeff();
+  auto deform_below = [&](Vec3 q) {
+    q[split_axis] = std::min(q[split_axis], -nudge);
+    return box.to_object(forward_local(q));
+  };
   auto keep = [&](const Vec3& q) { return box.to_object(q); };
   struct Piece {
     Polygon polygon;
     bool inside;
+    bool below = false;  // on the negative side of the split plane
   };
   std::vector<Piece> pieces;
   Polygon inner, outer;
@@ -639,6 +792,16 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
           if (!outer.empty()) pieces.push_back(Piece{outer, false});
         }
       }
+    if (split_axis >= 0) {
+      size_t n = pieces.size();
+      for (size_t k = 0; k < n; ++k) {
+        if (!pieces[k].inside) continue;
+        split_polygon(pieces[k].polygon, split_axis, 1.0, 0.0, inner, outer);
+        pieces[k].polygon = outer;  // q[split_axis] >= 0
+        if (!inner.empty()) pieces.push_back(Piece{inner, true, true});
+      }
+      std::erase_if(pieces, [](const Piece& p) { return p.polygon.empty(); });
+    }
     for (const Piece& piece : pieces) {
       const Polygon& poly = piece.polygon;
       for (size_t k = 1; k + 1 < poly.size(); ++k) {
@@ -650,7 +813,10 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
         double longest = std::max({(poly[k] - poly[0]).norm(), (poly[k + 1] - poly[k]).norm(),
                                    (poly[0] - poly[k + 1]).norm()});
         int n = std::max(1, static_cast<int>(std::ceil(longest / max_edge)));
-        add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform);
+        if (piece.below)
+          add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform_below);
+        else
+          add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform);
       }
     }
   }
@@ -692,7 +858,76 @@ Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
       Vec3 n = (mesh.vertex(face[i], 1) - a).cross(mesh.vertex(face[i], 2) - a);
       n = n.norm() > 0.0 ? Vec3(n.normalized()) : Vec3::Zero();
       image.depth[i] = static_cast<float>(depth[i]);
-      put_colour(image, x, y, shade(settings, n, camera.pixel_ray(x, y, width, height).direction));
+      put_colour(image, x, y,
+                 shade(settings.colour, n, camera.pixel_ray(x, y, width, height).direction));
+    }
+  });
+  return image;
+}
+
+Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfSpace>& region,
+                       CutMode mode, const Camera& camera, int width, int height,
+                       const RenderSettings& settings) {
+  check_image_size("exact_cut_render", width, height);
+  if (mode == CutMode::ThickShell)
+    throw Error("exact_cut_render: thick shells have no exact reference");
+  Image image(width, height);
+  const TriangleBvh bvh(mesh);
+  const auto normals = vertex_normals(mesh);
+  parallel_for(height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      const Ray ray = camera.pixel_ray(x, y, width, height);
+      // The ray's interval [c0, c1] in the region (the local frame is rigid: same t), and the
+      // half-space whose plane it leaves through.
+      const Vec3 o = box.to_local(ray.origin), d = box.direction_to_local(ray.direction);
+      double c0 = -kInfinity, c1 = kInfinity;
+      int exit_plane = -1;
+      for (size_t k = 0; k < region.size() && c0 <= c1; ++k) {
+        const double nd = region[k].normal.dot(d),
+                     dist = region[k].offset - region[k].normal.dot(o);
+        if (nd == 0.0) {
+          if (dist < 0.0) c0 = kInfinity;
+          continue;
+        }
+        const double t = dist / nd;
+        if (nd > 0.0 && t < c1) {
+          c1 = t;
+          exit_plane = static_cast<int>(k);
+        } else if (nd < 0.0) {
+          c0 = std::max(c0, t);
+        }
+      }
+      const bool crosses = c0 < c1 && c1 > ray.t_min;
+      auto outside_region = [&](double t) { return !(crosses && t > c0 && t < c1); };
+      double best_t = kInfinity;
+      Vec3 normal = -ray.direction;
+      HitKind kind = HitKind::Surface;
+      if (auto h = bvh.nearest(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_region)) {
+        best_t = h->hit.t;
+        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->face, 0)).transpose() +
+                 h->hit.u * normals.row(mesh.F(h->face, 1)).transpose() +
+                 h->hit.v * normals.row(mesh.F(h->face, 2)).transpose();
+        if (n.norm() > 0.0) normal = n.normalized();
+        const Vec3 a = mesh.vertex(h->face, 0);
+        const Vec3 geometric = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+        if (geometric.dot(ray.direction) > 0.0) {
+          kind = HitKind::Inside;
+          normal = -normal;
+        }
+      }
+      if (mode == CutMode::Solid && crosses && c1 < best_t && c1 < ray.t_max && exit_plane >= 0 &&
+          bvh.count_after(ray.origin, ray.direction, c1) % 2 == 1) {
+        best_t = c1;
+        kind = HitKind::CutFace;
+        normal = -box.direction_to_object(region[exit_plane].normal);
+      }
+      if (best_t == kInfinity) {
+        put_colour(image, x, y, settings.background);
+        continue;
+      }
+      const Vec3 p = ray.origin + best_t * ray.direction;
+      image.depth[static_cast<size_t>(y) * width + x] = static_cast<float>(camera.depth_of(p));
+      put_colour(image, x, y, shade(albedo_of(settings, kind), normal, ray.direction));
     }
   });
   return image;

@@ -20,11 +20,16 @@
 
 namespace raywarp {
 
+// What a ray-cast hit lies on: the object's surface, the inside of its shell (seen through a
+// cut), or a solid cut face.
+enum class HitKind { Surface, Inside, CutFace };
+
 // A ray-cast hit in the box's local frame.
 struct RayHit {
   double t = 0.0;          // along the local ray (unit direction: same as object units)
   Eigen::Vector3d point;   // deformed position p'
-  Eigen::Vector3d normal;  // outward unit normal of the deformed surface (eq. 5)
+  Eigen::Vector3d normal;  // unit normal facing out of what was hit (eq. 5, or grad A: eq. 6)
+  HitKind kind = HitKind::Surface;
 };
 
 // The ray cast of one box along a local-frame ray over [t0, t1], exactly as the shader does it.
@@ -38,9 +43,24 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
 // The mesh with every triangle that meets `box` split at the box faces and subdivided so that
 // its edges are shorter than `max_edge`; the pieces inside the box are mapped by
 // `forward_local` (the deformer's F in the box's local frame). Pieces outside are unchanged.
+// With split_axis >= 0 the inside pieces are also split at the plane q[split_axis] = 0, and those
+// on its negative side are mapped as limits from that side (F evaluated 1e-9 box sizes below
+// the plane): the ground truth of a deformer that cuts along that plane (an incision).
 Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
                        const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
-                       double max_edge);
+                       double max_edge, int split_axis = -1);
+
+// Exact render of the mesh with a convex region of `box` removed (a box cut: no displacement),
+// independent of every grid: per pixel, the mesh's triangles along the ray (all of them, through
+// a BVH) and the ray's interval in the region (clipped by its half-spaces, box-local frame).
+//  - Hollow: the first triangle hit that lies outside the region (a back face is the inside).
+//  - Solid: the first point inside the mesh and outside the region (CSG difference): the first
+//    hit outside the region, or the point where the ray leaves the region if that point lies
+//    inside the mesh (odd number of hits beyond it), which is then on a cut face.
+// The mesh must be closed and oriented outwards. Thick shells have no exact form here.
+Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfSpace>& region,
+                       CutMode mode, const Camera& camera, int width, int height,
+                       const RenderSettings& settings);
 
 // CPU z-buffer rasterisation of all triangles, shaded like the GL renderer (flat colour from
 // the face normal), depth per DESIGN's convention. Pixel centres sampled, row 0 at the top.

@@ -28,7 +28,7 @@ constexpr int kMaxImageSide = 8192;
 // Textures of all boxes together; checked at load time, before anything is allocated.
 
 // Deformer types of DESIGN.md that this release does not build yet, for a helpful message.
-constexpr const char* kLaterDeformers[] = {"peel", "incision", "box_cut", "points"};
+constexpr const char* kLaterDeformers[] = {"points"};
 
 // Integers as integers, anything else in the shortest form that reads back exactly.
 std::string format_number(double x) {
@@ -228,25 +228,119 @@ Box read_box_geometry(const SceneReader& r, const json& j, const std::string& fi
   return axis_aligned ? read_min_max(r, j, field) : read_centred(r, j, field);
 }
 
+const char* const kDeformerTypes = "twist, bend, peel, incision, box_cut";
+
+bool is_cut(const DeformerSpec& d) {
+  return d.type == "peel" || d.type == "incision" || d.type == "box_cut";
+}
+
+int read_axis(const SceneReader& r, const json& j, const std::string& field, const char* key,
+              const std::string& hint) {
+  std::string axis = r.one_of(r.required(j, field, key, hint), child(field, key), {"x", "y", "z"});
+  return axis[0] - 'x';
+}
+
+// `from` of peel and incision: a face of the box on another axis than `axis`.
+void read_from_face(const SceneReader& r, const json& j, const std::string& field,
+                    DeformerSpec& d) {
+  std::string face =
+      r.one_of(r.required(j, field, "from", "give a face of the box: +x, -x, +y, -y, +z, -z"),
+               child(field, "from"), {"+x", "-x", "+y", "-y", "+z", "-z"});
+  d.from_side = face[0] == '+' ? 1 : -1;
+  d.from_axis = face[1] - 'x';
+  if (d.from_axis != d.axis) return;
+  std::string others;
+  for (int a = 0; a < 3; ++a)
+    if (a != d.axis)
+      for (const char* side : {"+", "-"})
+        others += (others.empty() ? "" : ", ") + std::string(side) + char('x' + a);
+  r.fail(child(field, "from"), j["from"],
+         "must be a face on another axis than " + child(field, "axis") + " = \"" +
+             char('x' + d.axis) + "\"; allowed: " + others);
+}
+
+// A length that must be > 0, any finite size.
+double positive(const SceneReader& r, const json& j, const std::string& field, const char* key,
+                const std::string& hint) {
+  return r.number(r.required(j, field, key, hint), child(field, key),
+                  {0.0, std::numeric_limits<double>::infinity(), true});
+}
+
+void read_peel(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+  r.check_keys(j, field, {"type", "axis", "from", "angle_deg", "thickness", "radius", "hinge"});
+  d.axis = read_axis(r, j, field, "axis", "give the curl axis, one of x, y, z");
+  read_from_face(r, j, field, d);
+  d.angle_deg = r.number(r.required(j, field, "angle_deg", "give the curl angle in degrees"),
+                         child(field, "angle_deg"), {0.0, 180.0, true, false});
+  d.thickness = positive(r, j, field, "thickness", "give the layer thickness in object units");
+  d.radius = positive(r, j, field, "radius", "give the curl radius in object units");
+  if (j.contains("hinge")) d.hinge = r.number(j["hinge"], child(field, "hinge"), Interval{});
+}
+
+void read_incision(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+  r.check_keys(j, field, {"type", "axis", "from", "depth", "opening"});
+  d.axis = read_axis(r, j, field, "axis", "give the normal of the cut plane, one of x, y, z");
+  read_from_face(r, j, field, d);
+  d.depth = positive(r, j, field, "depth", "give the depth of the cut in object units");
+  d.opening = positive(r, j, field, "opening", "give the width of the gap in object units");
+}
+
+void read_wedge(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+  r.require_object(j, field, "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}");
+  r.check_keys(j, field, {"axis", "from_deg", "angle_deg"});
+  d.wedge_axis = read_axis(r, j, field, "axis", "give the wedge's axis, one of x, y, z");
+  if (j.contains("from_deg"))
+    d.wedge_from_deg = r.number(j["from_deg"], child(field, "from_deg"), Interval{});
+  d.wedge_angle_deg =
+      r.number(r.required(j, field, "angle_deg", "give the wedge's angle in degrees"),
+               child(field, "angle_deg"), {0.0, 180.0, true, false});
+}
+
+void read_box_cut(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+  r.check_keys(j, field, {"type", "sub_min", "sub_max", "wedge"});
+  if (j.contains("sub_min"))
+    d.sub_min = r.vec3(j["sub_min"], child(field, "sub_min"), closed(0, 1));
+  if (j.contains("sub_max"))
+    d.sub_max = r.vec3(j["sub_max"], child(field, "sub_max"), closed(0, 1));
+  for (int a = 0; a < 3; ++a) {
+    if (d.sub_max[a] > d.sub_min[a]) continue;
+    if (j.contains("sub_max"))
+      r.fail(element(child(field, "sub_max"), a), j["sub_max"][a],
+             "must be greater than " + element(child(field, "sub_min"), a) + " = " +
+                 format_number(d.sub_min[a]));
+    r.fail(element(child(field, "sub_min"), a), j["sub_min"][a],
+           "must be less than " + element(child(field, "sub_max"), a) + " = " +
+               format_number(d.sub_max[a]) + " (the default: the box's max face)");
+  }
+  if (j.contains("wedge")) read_wedge(r, j["wedge"], child(field, "wedge"), d);
+}
+
 DeformerSpec read_deformer(const SceneReader& r, const json& j, const std::string& field) {
   if (j.is_array())
     r.fail(field, j,
            "must be one deformer object; lists of deformers are not available in this version");
   r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
-  r.check_keys(j, field, {"type", "axis", "angle_deg"});
-  const json& type = r.required(j, field, "type", "give one of twist, bend");
+  const json& type = r.required(j, field, "type", std::string("give one of ") + kDeformerTypes);
   std::string note;
   for (const char* later : kLaterDeformers)
     if (type == later) note = " (" + std::string(later) + " is not available in this version)";
   DeformerSpec d;
-  d.type = r.one_of(type, child(field, "type"), {"twist", "bend"}, note);
-  std::string axis = r.one_of(r.required(j, field, "axis", "give one of x, y, z"),
-                              child(field, "axis"), {"x", "y", "z"});
-  d.axis = axis[0] - 'x';
-  const json& angle = r.required(j, field, "angle_deg", "give the angle in degrees");
-  Interval range;  // twist: any finite angle
-  if (d.type == "bend") range = {-360.0, 360.0, true, true};
-  d.angle_deg = r.number(angle, child(field, "angle_deg"), range);
+  d.type =
+      r.one_of(type, child(field, "type"), {"twist", "bend", "peel", "incision", "box_cut"}, note);
+  if (d.type == "peel") {
+    read_peel(r, j, field, d);
+  } else if (d.type == "incision") {
+    read_incision(r, j, field, d);
+  } else if (d.type == "box_cut") {
+    read_box_cut(r, j, field, d);
+  } else {
+    r.check_keys(j, field, {"type", "axis", "angle_deg"});
+    d.axis = read_axis(r, j, field, "axis", "give one of x, y, z");
+    const json& angle = r.required(j, field, "angle_deg", "give the angle in degrees");
+    Interval range;  // twist: any finite angle
+    if (d.type == "bend") range = {-360.0, 360.0, true, true};
+    d.angle_deg = r.number(angle, child(field, "angle_deg"), range);
+  }
   return d;
 }
 
@@ -272,21 +366,55 @@ int read_deformation(const SceneReader& r, const json& j, const std::string& fie
   return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
 }
 
+int read_alpha(const SceneReader& r, const json& j, const std::string& field) {
+  r.require_object(j, field, "{\"resolution\": ...}");
+  r.check_keys(j, field, {"resolution"});
+  BoxSpec defaults;
+  if (!j.contains("resolution")) return defaults.alpha_resolution;
+  return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
+}
+
+// cut_mode, shell_thickness and alpha, after the deformer has been read.
+void read_cut_settings(const SceneReader& r, const json& j, const std::string& field, BoxSpec& b) {
+  if (!is_cut(b.deformer)) {
+    for (const char* key : {"cut_mode", "shell_thickness", "alpha"})
+      if (j.contains(key))
+        r.fail(child(field, key), j[key],
+               std::string(key) + " applies to cut deformers (peel, incision, box_cut); " +
+                   child(field, "deformer.type") + " is " + b.deformer.type);
+    return;
+  }
+  std::string mode = "solid";
+  if (j.contains("cut_mode"))
+    mode = r.one_of(j["cut_mode"], child(field, "cut_mode"), {"hollow", "solid", "thick_shell"});
+  b.cut_mode = mode == "hollow"  ? CutMode::Hollow
+               : mode == "solid" ? CutMode::Solid
+                                 : CutMode::ThickShell;
+  if (b.cut_mode == CutMode::ThickShell) {
+    b.shell_thickness = positive(
+        r, j, field, "shell_thickness",
+        "required with cut_mode thick_shell; give the shell thickness in object units (> 0)");
+  } else if (j.contains("shell_thickness")) {
+    r.fail(child(field, "shell_thickness"), j["shell_thickness"],
+           "only with cut_mode thick_shell; " + child(field, "cut_mode") + " is " + mode +
+               (j.contains("cut_mode") ? "" : " (the default)"));
+  }
+  if (j.contains("alpha")) b.alpha_resolution = read_alpha(r, j["alpha"], child(field, "alpha"));
+}
+
 BoxSpec read_box(const SceneReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"min\": ..., \"max\": ..., \"deformer\": ...}");
   r.check_keys(j, field,
                {"min", "max", "centre", "center", "half_extents", "rotation_deg", "deformer",
-                "implicit", "deformation", "cut_mode"});
-  if (j.contains("cut_mode"))
-    r.fail(child(field, "cut_mode"), j["cut_mode"],
-           "cuts are not available in this version; deformer types: twist, bend");
+                "implicit", "deformation", "cut_mode", "shell_thickness", "alpha"});
   BoxSpec b;
   b.box = read_box_geometry(r, j, field);
   b.deformer = read_deformer(
       r,
       r.required(j, field, "deformer",
-                 "give {\"type\": \"twist\"|\"bend\", \"axis\": ..., \"angle_deg\": ...}"),
+                 "give {\"type\": \"twist\"|\"bend\"|\"peel\"|\"incision\"|\"box_cut\", ...}"),
       child(field, "deformer"));
+  read_cut_settings(r, j, field, b);
   if (j.contains("implicit"))
     b.implicit = read_implicit(r, j["implicit"], child(field, "implicit"));
   if (j.contains("deformation"))
@@ -365,6 +493,13 @@ std::uint64_t deformation_bytes(const BoxSpec& b) {
   return d * d * d * 4 * sizeof(float);
 }
 
+// The alpha map A of a cut: at most resolution^3 texels of 1 float, like D.
+std::uint64_t alpha_bytes(const BoxSpec& b) {
+  if (!is_cut(b.deformer)) return 0;
+  std::uint64_t a = b.alpha_resolution;
+  return a * a * a * sizeof(float);
+}
+
 std::string gib(std::uint64_t bytes) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.2f GiB", bytes / double(std::uint64_t(1) << 30));
@@ -372,7 +507,7 @@ std::string gib(std::uint64_t bytes) {
 }
 
 void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs) {
-  std::uint64_t grids = 0, textures = 0;
+  std::uint64_t grids = 0, textures = 0, alphas = 0;
   // The field to lower: the resolution with the largest texture.
   std::uint64_t largest = 0;
   std::string field;
@@ -383,17 +518,24 @@ void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs
     field = std::move(name);
     value = resolution;
   };
+  bool cuts = false;
   for (size_t i = 0; i < specs.size(); ++i) {
-    std::uint64_t g = distance_grid_bytes(specs[i]), t = deformation_bytes(specs[i]);
+    std::uint64_t g = distance_grid_bytes(specs[i]), t = deformation_bytes(specs[i]),
+                  a = alpha_bytes(specs[i]);
     grids += g;
     textures += t;
+    alphas += a;
+    cuts = cuts || is_cut(specs[i].deformer);
     consider(g, element("boxes", i) + ".implicit.resolution", specs[i].implicit.resolution);
     consider(t, element("boxes", i) + ".deformation.resolution", specs[i].deformation_resolution);
+    consider(a, element("boxes", i) + ".alpha.resolution", specs[i].alpha_resolution);
   }
-  if (grids + textures <= kMemoryBudgetBytes) return;
+  std::uint64_t total = grids + textures + alphas;
+  if (total <= kMemoryBudgetBytes) return;
   r.fail(field, value,
-         "the textures of all boxes would take " + gib(grids + textures) + " (distance grids " +
-             gib(grids) + ", deformation textures " + gib(textures) +
+         "the textures of all boxes would take " + gib(total) + " (distance grids " + gib(grids) +
+             ", deformation textures " + gib(textures) +
+             (cuts ? ", alpha maps " + gib(alphas) : std::string()) +
              "), more than the budget of " + gib(kMemoryBudgetBytes) +
              "; lower this resolution (the largest of them)");
 }
@@ -426,9 +568,9 @@ Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::p
 
 RenderSettings read_render(const SceneReader& r, const json& j) {
   r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
-  r.check_keys(
-      j, "render",
-      {"width", "height", "step_voxels", "max_steps", "refine_steps", "background", "colour"});
+  r.check_keys(j, "render",
+               {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
+                "colour", "cut_colour", "inside_colour", "skipping"});
   RenderSettings s;
   if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
   if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
@@ -441,6 +583,15 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
   if (j.contains("background"))
     s.background = r.vec3(j["background"], "render.background", closed(0, 1));
   if (j.contains("colour")) s.colour = r.vec3(j["colour"], "render.colour", closed(0, 1));
+  if (j.contains("cut_colour"))
+    s.cut_colour = r.vec3(j["cut_colour"], "render.cut_colour", closed(0, 1));
+  if (j.contains("inside_colour"))
+    s.inside_colour = r.vec3(j["inside_colour"], "render.inside_colour", closed(0, 1));
+  if (j.contains("skipping")) {
+    if (!j["skipping"].is_boolean())
+      r.fail("render.skipping", j["skipping"], "must be true or false");
+    s.skipping = j["skipping"].get<bool>();
+  }
   return s;
 }
 

@@ -10,13 +10,31 @@
 
 #include "library/box.h"
 #include "library/camera.h"
+#include "library/textures.h"
 
 namespace raywarp {
 
 struct DeformerSpec {
-  std::string type;      // "twist" | "bend"
-  int axis = 1;          // 0 = x, 1 = y, 2 = z
-  double angle_deg = 0;  // twist: any; bend: (-360, 360)
+  std::string type;      // "twist" | "bend" | "peel" | "incision" | "box_cut"
+  int axis = 1;          // 0 = x, 1 = y, 2 = z (twist, bend: the axis; peel: the curl axis;
+                         // incision: the normal of the cut plane)
+  double angle_deg = 0;  // twist: any; bend: (-360, 360); peel: (0, 180]
+  // peel and incision: the face the cut enters through, e.g. "+y" (axis, side).
+  int from_axis = 1;
+  int from_side = 1;
+  double thickness = 0;  // peel: layer thickness, (0, 2 h_from)
+  double radius = 0;     // peel: curl radius, > 0
+  double hinge = 0;      // peel: where the flap starts along the peel direction, [-h_a, h_a)
+  double depth = 0;      // incision: how far the cut reaches from its face, (0, 2 h_from]
+  double opening = 0;    // incision: width of the gap at the face, (0, 2 h_normal)
+  // box_cut: the removed sub-box as fractions of the box along its local axes, 0 = min face,
+  // 1 = max face (default the whole box), and an optional wedge about an axis through the box
+  // centre, from wedge_from_deg over wedge_angle_deg (0 = no wedge).
+  Eigen::Vector3d sub_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sub_max = Eigen::Vector3d::Ones();
+  int wedge_axis = 1;
+  double wedge_from_deg = 0;
+  double wedge_angle_deg = 0;  // (0, 180] when given
 };
 
 struct ImplicitSpec {
@@ -31,6 +49,10 @@ struct BoxSpec {
   DeformerSpec deformer;
   ImplicitSpec implicit;
   int deformation_resolution = 96;  // texels of D along the longest side of F(box), [4, 1024]
+  // Cuts only (peel, incision, box_cut):
+  CutMode cut_mode = CutMode::Solid;
+  double shell_thickness = 0;  // thick_shell: tau in object units, > 0 (required for it)
+  int alpha_resolution = 64;   // texels of A along the longest side, [4, 1024]
 };
 
 struct RenderSettings {
@@ -39,7 +61,10 @@ struct RenderSettings {
   int max_steps = 1024;                 // bound on the linear search, [1, 100000]
   int refine_steps = 8;                 // binary refinement steps, [0, 64]
   Eigen::Vector3d background{1, 1, 1};  // linear RGB in [0, 1]
-  Eigen::Vector3d colour{0.8, 0.62, 0.45};  // surface albedo, linear RGB in [0, 1]
+  Eigen::Vector3d colour{0.8, 0.62, 0.45};         // surface albedo, linear RGB in [0, 1]
+  Eigen::Vector3d cut_colour{0.75, 0.18, 0.16};    // solid cut faces, linear RGB
+  Eigen::Vector3d inside_colour{0.3, 0.42, 0.62};  // the inside of a shell (back faces)
+  bool skipping = true;  // empty-space skipping (cut region and far from the surface)
 };
 
 // The textures of all boxes of a scene together must fit in this many bytes; load_scene checks

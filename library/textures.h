@@ -1,6 +1,8 @@
 // The two textures the ray caster reads, both in a box's local frame (object units).
 #pragma once
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <limits>
 #include <string>
 
 #include "library/box.h"
@@ -36,11 +38,50 @@ struct DeformationTexture {
 // inside the mesh the raster pass draws beyond the face, and a crack would show the mesh's inside.
 constexpr double kSeamVoxels = 1.0;
 
+// How a cut shows (Correa & Silver 2007, section 5.1): the surface opened as a thin shell,
+// a solid with a cut face where A crosses 0 (eq. 6), or a shell of thickness tau (eq. 7).
+enum class CutMode { Hollow, Solid, ThickShell };
+const char* cut_mode_name(CutMode mode);
+
+// The alpha map A(p') of a cut, A > 0 inside the cut region, in the deformed box's frame: a
+// signed distance to the cut region's boundary (see Deformer::alpha), so it is also the distance
+// field the ray caster skips the cut with.
+struct AlphaMap {
+  Grid3<float> grid;
+  double bake_seconds = 0.0;
+};
+
+// The ray caster reads the distance grid this many of its voxels beyond the faces of a box whose
+// deformer moves nothing (a box cut), to find the caps a removed part leaves on the box faces.
+constexpr double kCapVoxels = 2.0;
+
 // Everything the ray caster needs for one box.
 struct BoxTextures {
   Box box;
   DistanceGrid sdf;
   DeformationTexture deformation;
+  // Where rays are cast, in the box frame: the deformation texture's region, or for a deformer
+  // that moves nothing the box grown by kCapVoxels voxels (within the distance grid).
+  Eigen::AlignedBox3d region;
+  // D = 0 everywhere: the shader reads no deformation texture and treats samples just beyond
+  // the box (after a sample inside it) as their own preimage.
+  bool moves_nothing = false;
+  // A bound of ||I + J_D|| of the interpolated texture over its cells outside the cut: the
+  // Lipschitz constant of p' -> p' + D(p'), for empty-space skipping (1 when D = 0). Unknown
+  // (infinite) by default, which turns skipping by the distance grid off.
+  double lipschitz = std::numeric_limits<double>::infinity();
+  // Cuts.
+  bool has_cut = false;
+  CutMode cut_mode = CutMode::Solid;
+  double shell_thickness = 0.0;  // tau, object units (thick shell)
+  AlphaMap alpha;                // empty unless has_cut
 };
+
+// Where rays are cast for a box: `region`, or the deformation texture's region when unset.
+Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b);
+// How far from the cut empty-space skipping by the distance grid stops:
+// sqrt(3) (alpha texel + deformation texel / 2), covering the alpha map's interpolation error
+// and the cells of D next to the cut (see shaders/raycast.frag.glsl).
+double cut_margin(const BoxTextures& b);
 
 }  // namespace raywarp

@@ -1,54 +1,162 @@
-// Pass 2: ray casting of the deformed part of the mesh (Correa & Silver 2007, section 5).
+// Pass 2: ray casting of the deformed part of the mesh (Correa & Silver 2007, sections 3 and 5).
 // Everything is in the box's local frame (object units). The same algorithm, in double, is
 // raywarp::ray_cast_box in library/reference.cpp: keep the two in step.
+//
+// Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
+// 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample
+// just beyond the box after one inside it reads the distance grid, for the caps of a box cut);
+// RAYWARP_SKIP (empty-space skipping).
 #include "camera.glsl"
 #include "shading.glsl"
 uniform mat4 u_object_to_box;
 uniform mat3 u_box_to_object_dir;
 uniform vec3 u_half_extents;
+uniform vec3 u_region_lower;      // where rays are cast
+uniform vec3 u_region_upper;
 uniform sampler3D u_sdf;          // f > 0 inside, object units
 uniform vec3 u_sdf_origin;        // lower corner of the grid region
 uniform vec3 u_sdf_size;          // dims * spacing
 uniform float u_sdf_spacing;
 uniform float u_background;       // |f| beyond the narrow band
-uniform sampler3D u_deformation;  // xyz: D(p') (p = p' + D), w: validity
-uniform vec3 u_def_origin;
-uniform vec3 u_def_size;
-uniform float u_def_spacing;
 uniform float u_step;             // linear-search step, object units
 uniform int u_max_steps;
 uniform int u_refine_steps;
 uniform float u_seam;             // tolerance at box faces, object units
+#ifndef RAYWARP_MOVES_NOTHING
+uniform sampler3D u_deformation;  // xyz: D(p') (p = p' + D), w: validity
+uniform vec3 u_def_origin;
+uniform vec3 u_def_size;
+uniform float u_def_spacing;
+#endif
+#if RAYWARP_CUT != 0
+uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance to its boundary
+uniform vec3 u_alpha_origin;
+uniform vec3 u_alpha_size;
+uniform float u_alpha_spacing;
+uniform vec3 u_cut_colour;
+#endif
+#if RAYWARP_CUT == 3
+uniform float u_thickness;        // tau of eq. 7
+#endif
+#ifdef RAYWARP_SKIP
+uniform float u_lipschitz;        // bound of |I + J_D| outside the cut
+uniform float u_cut_margin;       // sqrt(3) (alpha texel + deformation texel / 2)
+#endif
 layout(location = 0) out vec4 out_colour;
 layout(location = 1) out float out_depth;
 
-vec4 deformation(vec3 p_def) { return texture(u_deformation, (p_def - u_def_origin) / u_def_size); }
-float distance_at(vec3 p) { return texture(u_sdf, (p - u_sdf_origin) / u_sdf_size).r; }
+const float kSqrt3 = 1.7320508;
 
-// g(p') = f(p' + D(p')), the implicit surface seen through the inverse displacement; empty
-// where p' has no preimage in the box.
-float g(vec3 p_def) {
+float distance_at(vec3 p) { return texture(u_sdf, (p - u_sdf_origin) / u_sdf_size).r; }
+bool in_box(vec3 p) { return all(lessThanEqual(abs(p), u_half_extents)); }
+#ifndef RAYWARP_MOVES_NOTHING
+vec4 deformation(vec3 p_def) { return texture(u_deformation, (p_def - u_def_origin) / u_def_size); }
+#endif
+#if RAYWARP_CUT != 0
+float alpha_at(vec3 p_def) { return texture(u_alpha, (p_def - u_alpha_origin) / u_alpha_size).r; }
+#endif
+
+// One sample of the ray: f at the preimage (valid: the preimage lies in the box) and A.
+struct Sample {
+  float f;
+  float a;
+  bool valid;
+};
+
+// `beyond_ok`: the previous sample lay in the box, so (when D = 0) a point beyond it is read.
+Sample sample_at(vec3 p_def, bool beyond_ok) {
+  Sample s;
+#ifdef RAYWARP_MOVES_NOTHING
+  s.valid = beyond_ok || in_box(p_def);
+  s.f = s.valid ? distance_at(p_def) : -u_background;
+#else
   vec4 d = deformation(p_def);
-  if (d.w < 0.5) return -u_background;
   vec3 p = p_def + d.xyz;
-  if (any(greaterThan(abs(p), u_half_extents))) return -u_background;
-  return distance_at(p);
+  s.valid = d.w >= 0.5 && in_box(p);
+  s.f = s.valid ? distance_at(p) : -u_background;
+#endif
+#if RAYWARP_CUT != 0
+  s.a = alpha_at(p_def);
+#else
+  s.a = -1.0;
+#endif
+  return s;
+}
+
+// The surface function: f, or eq. 7's shell f^ = tau - f where f > tau / 2.
+float surface(float f) {
+#if RAYWARP_CUT == 3
+  return min(f, u_thickness - f);
+#else
+  return f;
+#endif
+}
+
+// The solid the ray looks for, > 0 inside: the surface minus the cut (a CSG difference, which
+// finds the first point inside the object and outside the cut, as section 5.1.2's search does).
+float value(Sample s) {
+  if (!s.valid) return -u_background;
+#if RAYWARP_CUT == 2 || RAYWARP_CUT == 3
+  return min(surface(s.f), -s.a);
+#else
+  return s.f;
+#endif
+}
+
+#ifdef RAYWARP_SKIP
+// How far the ray may advance without passing a hit. Trilinear interpolation of a texture whose
+// texels differ by at most one spacing per axis is sqrt(3)-Lipschitz, and f(p' + D(p')) is
+// sqrt(3) u_lipschitz-Lipschitz outside the cut.
+float skip_distance(Sample s) {
+  if (!s.valid) return 0.0;
+#if RAYWARP_CUT != 0
+  if (s.a > 0.0) return s.a / kSqrt3;  // inside the cut: A stays > 0 (section 6.2)
+#endif
+#if RAYWARP_CUT == 1
+  float room = abs(s.f);               // a thin shell: no sign change of f
+#else
+  float room = -surface(s.f);          // outside the solid: f^ stays < 0
+#endif
+  float skip = room / (kSqrt3 * u_lipschitz);
+#if RAYWARP_CUT != 0 && !defined(RAYWARP_MOVES_NOTHING)
+  skip = min(skip, -s.a - u_cut_margin);  // the bound holds only away from the cut
+#endif
+  return skip;
+}
+#endif
+
+vec3 gradient_f(vec3 p) {
+  float h = u_sdf_spacing;
+  return vec3(distance_at(p + vec3(h, 0, 0)) - distance_at(p - vec3(h, 0, 0)),
+              distance_at(p + vec3(0, h, 0)) - distance_at(p - vec3(0, h, 0)),
+              distance_at(p + vec3(0, 0, h)) - distance_at(p - vec3(0, 0, h))) / (2.0 * h);
 }
 
 // Outward normal of the deformed surface, eq. 5: (I + J_D)^T n(p + D(p')), with both
 // derivatives by central differences of the textures.
 vec3 deformed_normal(vec3 p_def) {
+#ifdef RAYWARP_MOVES_NOTHING
+  return -gradient_f(p_def);
+#else
   vec3 p = p_def + deformation(p_def).xyz;
-  float hf = u_sdf_spacing, hd = u_def_spacing;
-  vec3 grad_f = vec3(distance_at(p + vec3(hf, 0, 0)) - distance_at(p - vec3(hf, 0, 0)),
-                     distance_at(p + vec3(0, hf, 0)) - distance_at(p - vec3(0, hf, 0)),
-                     distance_at(p + vec3(0, 0, hf)) - distance_at(p - vec3(0, 0, hf))) / (2.0 * hf);
+  float hd = u_def_spacing;
   mat3 jd;  // columns: dD/dx, dD/dy, dD/dz
   jd[0] = (deformation(p_def + vec3(hd, 0, 0)).xyz - deformation(p_def - vec3(hd, 0, 0)).xyz) / (2.0 * hd);
   jd[1] = (deformation(p_def + vec3(0, hd, 0)).xyz - deformation(p_def - vec3(0, hd, 0)).xyz) / (2.0 * hd);
   jd[2] = (deformation(p_def + vec3(0, 0, hd)).xyz - deformation(p_def - vec3(0, 0, hd)).xyz) / (2.0 * hd);
-  return transpose(mat3(1.0) + jd) * (-grad_f);
+  return transpose(mat3(1.0) + jd) * (-gradient_f(p));
+#endif
 }
+
+#if RAYWARP_CUT != 0
+// The cut face's outward normal (into the cut): grad A (eq. 6).
+vec3 alpha_gradient(vec3 p_def) {
+  float h = u_alpha_spacing;
+  return vec3(alpha_at(p_def + vec3(h, 0, 0)) - alpha_at(p_def - vec3(h, 0, 0)),
+              alpha_at(p_def + vec3(0, h, 0)) - alpha_at(p_def - vec3(0, h, 0)),
+              alpha_at(p_def + vec3(0, 0, h)) - alpha_at(p_def - vec3(0, 0, h)));
+}
+#endif
 
 void main() {
   vec3 origin_obj, dir_obj;
@@ -57,56 +165,116 @@ void main() {
   vec3 o = (u_object_to_box * vec4(origin_obj, 1.0)).xyz;
   vec3 d = transpose(u_box_to_object_dir) * dir_obj;
 
-  // Clip the ray to the deformation texture's region (slab method).
+  // Clip the ray to the region (slab method).
   vec3 inv = 1.0 / d;
-  vec3 ta = (u_def_origin - o) * inv, tb = (u_def_origin + u_def_size - o) * inv;
+  vec3 ta = (u_region_lower - o) * inv, tb = (u_region_upper - o) * inv;
   float t0 = max(max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z)), 0.0);
   float t1 = min(min(min(max(ta.x, tb.x), max(ta.y, tb.y)), max(ta.z, tb.z)), t_far);
   if (t0 >= t1) discard;
 
-  // The samples are the regular ones, t0 + i * u_step, merged with one just before each crossing
-  // of a box face plane: that catches slivers of S_D thinner than a step that end on a face
-  // (at the seam with the raster pass, where a missed sliver would show the mesh's inside).
+  // Besides the regular samples (or skips), one just before each crossing of a box face plane:
+  // that catches slivers of S_D thinner than a step that end on a face (at the seam with the
+  // raster pass, where a missed sliver would show the mesh's inside).
   float before = 1e-3 * u_step;
   vec3 cross_lo = (-u_half_extents - o) * inv - before, cross_hi = (u_half_extents - o) * inv - before;
 
+  float t = t0, lo = t0, hi = t0;
+  bool was_in_box = in_box(o + t0 * d);
+  Sample s = sample_at(o + t0 * d, false);
+#if RAYWARP_CUT == 1
+  bool hit = false, front = true;
+#else
+  bool hit = value(s) > 0.0;
+#endif
   // Linear search, bounded by u_max_steps (+ the 6 face samples).
-  float lo = t0, hi = t0, regular = t0 + u_step;
-  bool hit = g(o + t0 * d) > 0.0;
-  for (int i = 1; i <= u_max_steps + 6 && !hit; ++i) {
-    lo = hi;
-    vec3 a = mix(vec3(1e30), cross_lo, greaterThan(cross_lo, vec3(lo)));
-    vec3 b = mix(vec3(1e30), cross_hi, greaterThan(cross_hi, vec3(lo)));
+  for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
+    float advance = u_step;
+#ifdef RAYWARP_SKIP
+    advance = max(advance, skip_distance(s));
+#endif
+    vec3 a = mix(vec3(1e30), cross_lo, greaterThan(cross_lo, vec3(t)));
+    vec3 b = mix(vec3(1e30), cross_hi, greaterThan(cross_hi, vec3(t)));
     vec3 m = min(a, b);
     float next_crossing = min(min(m.x, m.y), m.z);
-    bool at_face = next_crossing < min(regular, t1);
-    if (at_face) {
-      hi = next_crossing;
-    } else {
-      hi = min(regular, t1);
-      regular += u_step;
+    float target = min(t + advance, t1);
+    bool at_face = next_crossing < target;
+    float tn = at_face ? next_crossing : target;
+    vec3 pn = o + tn * d;
+    Sample sn = sample_at(pn, was_in_box);
+#if RAYWARP_CUT == 1
+    // A thin shell: any change of sign of f, kept where it lies outside the cut (section 5.1.1).
+    if (s.valid && sn.valid && (s.f > 0.0) != (sn.f > 0.0)) {
+      bool inside = s.f > 0.0;
+      float l = t, r = tn;
+      for (int k = 0; k < u_refine_steps; ++k) {
+        float mid = 0.5 * (l + r);
+        if ((sample_at(o + mid * d, true).f > 0.0) == inside) l = mid; else r = mid;
+      }
+      if (alpha_at(o + 0.5 * (l + r) * d) <= 0.0) {
+        hit = true;
+        front = !inside;
+        lo = l;
+        hi = r;
+      }
     }
-    float value = g(o + hi * d);
-    hit = value > 0.0;
-    // At a face the implicit surface may lie up to a fraction of a voxel inside the mesh that
-    // the raster pass draws beyond the face: within u_seam of it counts as the hit, so no crack
-    // opens between the passes.
-    if (at_face && !hit && value > -u_seam) {
+    // At a face, within u_seam of the surface counts as reaching it (see below).
+    if (!hit && at_face && s.valid && sn.valid && s.f <= 0.0 && sn.f > -u_seam && sn.a <= 0.0) {
       hit = true;
-      lo = hi;
+      lo = tn;
+      hi = tn;
     }
-    if (hi >= t1) break;
+#else
+    float v = value(sn);
+    if (v > 0.0) {
+      hit = true;
+      lo = t;
+      hi = tn;
+    } else if (at_face && v > -u_seam) {
+      // At a face the implicit surface may lie up to a fraction of a voxel inside the mesh that
+      // the raster pass draws beyond the face: within u_seam of it counts as the hit, so no
+      // crack opens between the passes.
+      hit = true;
+      lo = tn;
+      hi = tn;
+    }
+#endif
+    t = tn;
+    s = sn;
+    was_in_box = in_box(pn);
   }
   if (!hit) discard;
+#if RAYWARP_CUT != 1
   // Binary refinement between the last outside and the first inside sample.
   for (int i = 0; i < u_refine_steps; ++i) {
     float mid = 0.5 * (lo + hi);
-    if (g(o + mid * d) > 0.0) hi = mid; else lo = mid;
+    if (value(sample_at(o + mid * d, true)) > 0.0) hi = mid; else lo = mid;
   }
+#endif
   vec3 p_def = o + 0.5 * (lo + hi) * d;
   vec3 p_obj = origin_obj + 0.5 * (lo + hi) * dir_obj;
 
-  out_colour = shade(u_box_to_object_dir * deformed_normal(p_def), dir_obj);
+  vec3 albedo = u_albedo;
+  vec3 normal = deformed_normal(p_def);
+#if RAYWARP_CUT == 1
+  if (!front) {  // the inside of the shell
+    normal = -normal;
+    albedo = u_inside_colour;
+  }
+#elif RAYWARP_CUT == 2 || RAYWARP_CUT == 3
+  // Eq. 6: on the object's surface the normal of eq. 5, on the cut face grad A.
+  Sample sh = sample_at(p_def, true);
+  if (surface(sh.f) > -sh.a) {
+    normal = alpha_gradient(p_def);
+    albedo = u_cut_colour;
+  }
+#if RAYWARP_CUT == 3
+  else if (sh.f > 0.5 * u_thickness) {  // the shell's inner surface
+    normal = -normal;
+    albedo = u_inside_colour;
+  }
+#endif
+#endif
+  out_colour = shade_albedo(u_box_to_object_dir * normal, dir_obj, albedo);
   out_depth = linear_depth(p_obj);
   gl_FragDepth = window_depth(p_obj);
 }

@@ -68,6 +68,17 @@ Scene load_text(const std::string& name, const std::string& text) {
 
 Scene load_json(const std::string& name, const json& j) { return load_text(name, j.dump(2)); }
 
+// Cut deformers as the brief of each type writes them.
+json peel() {
+  return json::parse(R"({"type": "peel", "axis": "z", "from": "+y", "angle_deg": 120,
+                         "thickness": 0.8, "radius": 1.5})");
+}
+json incision() {
+  return json::parse(
+      R"({"type": "incision", "axis": "x", "from": "+y", "depth": 3, "opening": 1.2})");
+}
+json box_cut() { return json::parse(R"({"type": "box_cut"})"); }
+
 void expect_near(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double tol = 1e-12) {
   EXPECT_LE((a - b).cwiseAbs().maxCoeff(), tol)
       << "got " << a.transpose() << ", expected " << b.transpose();
@@ -92,6 +103,9 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_EQ(b.implicit.band_voxels, 3.0);
   EXPECT_EQ(b.implicit.margin_voxels, 2.0);
   EXPECT_EQ(b.deformation_resolution, 96);
+  EXPECT_EQ(b.cut_mode, CutMode::Solid);
+  EXPECT_EQ(b.shell_thickness, 0.0);
+  EXPECT_EQ(b.alpha_resolution, 64);
   EXPECT_FALSE(s.camera.has_value());
   EXPECT_EQ(s.render.width, 512);
   EXPECT_EQ(s.render.height, 512);
@@ -100,6 +114,9 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_EQ(s.render.refine_steps, 8);
   expect_near(s.render.background, {1, 1, 1});
   expect_near(s.render.colour, {0.8, 0.62, 0.45});
+  expect_near(s.render.cut_colour, {0.75, 0.18, 0.16});
+  expect_near(s.render.inside_colour, {0.3, 0.42, 0.62});
+  EXPECT_TRUE(s.render.skipping);
 }
 
 TEST(Scene, CentreFormWithRotationZYX) {
@@ -151,6 +168,124 @@ TEST(Scene, OptionalSectionsAreRead) {
   EXPECT_EQ(s.render.refine_steps, 0);
   expect_near(s.render.background, {0, 0.5, 1});
   expect_near(s.render.colour, {1, 1, 0});
+}
+
+TEST(Scene, RenderCutColoursAndSkipping) {
+  json j = base_scene();
+  j["render"] = json::parse(
+      R"({"cut_colour": [1, 0, 0.25], "inside_colour": [0, 0.5, 1], "skipping": false})");
+  Scene s = load_json("render_cuts.json", j);
+  expect_near(s.render.cut_colour, {1, 0, 0.25});
+  expect_near(s.render.inside_colour, {0, 0.5, 1});
+  EXPECT_FALSE(s.render.skipping);
+  j["render"] = {{"skipping", true}};
+  EXPECT_TRUE(load_json("render_skipping.json", j).render.skipping);
+}
+
+TEST(Scene, PeelIsReadWithDefaults) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = peel();
+  Scene s = load_json("peel.json", j);
+  const BoxSpec& b = s.boxes[0];
+  EXPECT_EQ(b.deformer.type, "peel");
+  EXPECT_EQ(b.deformer.axis, 2);
+  EXPECT_EQ(b.deformer.from_axis, 1);
+  EXPECT_EQ(b.deformer.from_side, 1);
+  EXPECT_EQ(b.deformer.angle_deg, 120.0);
+  EXPECT_EQ(b.deformer.thickness, 0.8);
+  EXPECT_EQ(b.deformer.radius, 1.5);
+  EXPECT_EQ(b.deformer.hinge, 0.0);  // default
+  // Cut defaults.
+  EXPECT_EQ(b.cut_mode, CutMode::Solid);
+  EXPECT_EQ(b.shell_thickness, 0.0);
+  EXPECT_EQ(b.alpha_resolution, 64);
+}
+
+TEST(Scene, PeelWithHingeHollowAndAlpha) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = peel();
+  j["boxes"][0]["deformer"]["from"] = "-x";
+  j["boxes"][0]["deformer"]["angle_deg"] = 180;  // the upper end is allowed
+  j["boxes"][0]["deformer"]["hinge"] = -0.25;
+  j["boxes"][0]["cut_mode"] = "hollow";
+  j["boxes"][0]["alpha"] = {{"resolution", 4}};
+  Scene s = load_json("peel_hinge.json", j);
+  const BoxSpec& b = s.boxes[0];
+  EXPECT_EQ(b.deformer.from_axis, 0);
+  EXPECT_EQ(b.deformer.from_side, -1);
+  EXPECT_EQ(b.deformer.angle_deg, 180.0);
+  EXPECT_EQ(b.deformer.hinge, -0.25);
+  EXPECT_EQ(b.cut_mode, CutMode::Hollow);
+  EXPECT_EQ(b.alpha_resolution, 4);
+}
+
+TEST(Scene, IncisionWithThickShell) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = incision();
+  j["boxes"][0]["deformer"]["from"] = "-z";
+  j["boxes"][0]["cut_mode"] = "thick_shell";
+  j["boxes"][0]["shell_thickness"] = 0.25;
+  j["boxes"][0]["alpha"] = {{"resolution", 256}};
+  Scene s = load_json("incision.json", j);
+  const BoxSpec& b = s.boxes[0];
+  EXPECT_EQ(b.deformer.type, "incision");
+  EXPECT_EQ(b.deformer.axis, 0);
+  EXPECT_EQ(b.deformer.from_axis, 2);
+  EXPECT_EQ(b.deformer.from_side, -1);
+  EXPECT_EQ(b.deformer.depth, 3.0);
+  EXPECT_EQ(b.deformer.opening, 1.2);
+  EXPECT_EQ(b.cut_mode, CutMode::ThickShell);
+  EXPECT_EQ(b.shell_thickness, 0.25);
+  EXPECT_EQ(b.alpha_resolution, 256);
+}
+
+TEST(Scene, IncisionDefaultsToSolid) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = incision();
+  j["boxes"][0]["alpha"] = json::object();  // every field of alpha has a default
+  Scene s = load_json("incision_default.json", j);
+  EXPECT_EQ(s.boxes[0].cut_mode, CutMode::Solid);
+  EXPECT_EQ(s.boxes[0].alpha_resolution, 64);
+  EXPECT_EQ(s.boxes[0].deformer.from_axis, 1);
+  EXPECT_EQ(s.boxes[0].deformer.from_side, 1);
+}
+
+TEST(Scene, BoxCutDefaultsToTheWholeBoxWithoutWedge) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = box_cut();
+  Scene s = load_json("box_cut.json", j);
+  const BoxSpec& b = s.boxes[0];
+  EXPECT_EQ(b.deformer.type, "box_cut");
+  expect_near(b.deformer.sub_min, {0, 0, 0});
+  expect_near(b.deformer.sub_max, {1, 1, 1});
+  EXPECT_EQ(b.deformer.wedge_angle_deg, 0.0);  // no wedge
+  EXPECT_EQ(b.cut_mode, CutMode::Solid);
+}
+
+TEST(Scene, BoxCutWithSubBoxAndWedge) {
+  json j = base_scene();
+  j["boxes"][0]["deformer"] = json::parse(R"({"type": "box_cut", "sub_min": [0.5, 0, 0.25],
+      "sub_max": [1, 0.75, 1], "wedge": {"axis": "z", "from_deg": -30, "angle_deg": 180}})");
+  j["boxes"][0]["cut_mode"] = "hollow";
+  Scene s = load_json("box_cut_wedge.json", j);
+  const DeformerSpec& d = s.boxes[0].deformer;
+  expect_near(d.sub_min, {0.5, 0, 0.25});
+  expect_near(d.sub_max, {1, 0.75, 1});
+  EXPECT_EQ(d.wedge_axis, 2);
+  EXPECT_EQ(d.wedge_from_deg, -30.0);
+  EXPECT_EQ(d.wedge_angle_deg, 180.0);
+  EXPECT_EQ(s.boxes[0].cut_mode, CutMode::Hollow);
+
+  // from_deg defaults to 0; sub_max alone leaves sub_min at 0.
+  j["boxes"][0]["deformer"] =
+      json::parse(R"({"type": "box_cut", "sub_max": [0.5, 1, 1], "wedge": {"axis": "x",
+          "angle_deg": 45}})");
+  DeformerSpec e = load_json("box_cut_wedge_default.json", j).boxes[0].deformer;
+  expect_near(e.sub_min, {0, 0, 0});
+  expect_near(e.sub_max, {0.5, 1, 1});
+  EXPECT_EQ(e.wedge_axis, 0);
+  EXPECT_EQ(e.wedge_from_deg, 0.0);
+  EXPECT_EQ(e.wedge_angle_deg, 45.0);
 }
 
 TEST(Scene, CameraAsPathRelativeToTheSceneFile) {
@@ -434,10 +569,12 @@ std::vector<BadCase> bad_cases() {
        {": boxes[0].deformer: missing; give {\"type\""}},
       {"DeformerTypeUnknown",
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "twsit"; }); },
-       {": boxes[0].deformer.type = \"twsit\": must be one of twist, bend"}},
+       {": boxes[0].deformer.type = \"twsit\": must be one of twist, bend, peel, incision, "
+        "box_cut"}},
       {"DeformerTypeNotYetAvailable",
-       [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "peel"; }); },
-       {": boxes[0].deformer.type = \"peel\": must be one of twist, bend (peel is not available"}},
+       [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "points"; }); },
+       {": boxes[0].deformer.type = \"points\": must be one of twist, bend, peel, incision, "
+        "box_cut (points is not available in this version)"}},
       {"DeformerList",
        [] {
          return edit([](json& j) { box0(j)["deformer"] = json::array({box0(j)["deformer"]}); });
@@ -573,10 +710,397 @@ std::vector<BadCase> bad_cases() {
        },
        {": boxes[0].deformation.resolution = 600: the textures of all boxes would take 6.4",
         "deformation textures 6.4"}},
-      {"CutModeGiven",
+      {"CutModeOnTwist",
        [] { return edit([](json& j) { box0(j)["cut_mode"] = "solid"; }); },
-       {": boxes[0].cut_mode = \"solid\": cuts are not available in this version; deformer "
-        "types: twist, bend"}},
+       {": boxes[0].cut_mode = \"solid\": cut_mode applies to cut deformers (peel, incision, "
+        "box_cut); boxes[0].deformer.type is twist"}},
+      {"ShellThicknessOnBend",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = {{"type", "bend"}, {"axis", "x"}, {"angle_deg", 90}};
+           box0(j)["shell_thickness"] = 0.5;
+         });
+       },
+       {": boxes[0].shell_thickness = 0.5: shell_thickness applies to cut deformers (peel, "
+        "incision, box_cut); boxes[0].deformer.type is bend"}},
+      {"AlphaOnTwist",
+       [] { return edit([](json& j) {
+              box0(j)["alpha"] = {{"resolution", 32}};
+            }); },
+       {": boxes[0].alpha = {\"resolution\":32}: alpha applies to cut deformers (peel, incision, "
+        "box_cut); boxes[0].deformer.type is twist"}},
+      {"CutModeUnknown",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["cut_mode"] = "open";
+         });
+       },
+       {": boxes[0].cut_mode = \"open\": must be one of hollow, solid, thick_shell"}},
+      {"ThickShellWithoutThickness",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["cut_mode"] = "thick_shell";
+         });
+       },
+       {": boxes[0].shell_thickness: missing; required with cut_mode thick_shell"}},
+      {"ShellThicknessZero",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["cut_mode"] = "thick_shell";
+           box0(j)["shell_thickness"] = 0;
+         });
+       },
+       {": boxes[0].shell_thickness = 0: must be > 0"}},
+      {"ShellThicknessWithSolid",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["cut_mode"] = "hollow";
+           box0(j)["shell_thickness"] = 0.5;
+         });
+       },
+       {": boxes[0].shell_thickness = 0.5: only with cut_mode thick_shell; boxes[0].cut_mode is "
+        "hollow"}},
+      {"ShellThicknessWithDefaultMode",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["shell_thickness"] = 0.5;
+         });
+       },
+       {": boxes[0].shell_thickness = 0.5: only with cut_mode thick_shell; boxes[0].cut_mode is "
+        "solid (the default)"}},
+      {"AlphaResolution3",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["alpha"] = {{"resolution", 3}};
+         });
+       },
+       {": boxes[0].alpha.resolution = 3: must be an integer in [4, 1024]"}},
+      {"AlphaResolution2000",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["alpha"] = {{"resolution", 2000}};
+         });
+       },
+       {": boxes[0].alpha.resolution = 2000: must be an integer in [4, 1024]"}},
+      {"AlphaUnknownKey",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["alpha"] = {{"res", 64}};
+         });
+       },
+       {": boxes[0].alpha.res = 64: unknown field; allowed: resolution"}},
+      {"AlphaNotObject",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["alpha"] = 64;
+         });
+       },
+       {": boxes[0].alpha = 64: must be a JSON object like {\"resolution\": ...}"}},
+      {"PeelFromSameAxis",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["axis"] = "y";
+         });
+       },
+       {": boxes[0].deformer.from = \"+y\": must be a face on another axis than "
+        "boxes[0].deformer.axis = \"y\"; allowed: +x, -x, +z, -z"}},
+      {"PeelFromUnknown",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["from"] = "top";
+         });
+       },
+       {": boxes[0].deformer.from = \"top\": must be one of +x, -x, +y, -y, +z, -z"}},
+      {"PeelFromMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"].erase("from");
+         });
+       },
+       {": boxes[0].deformer.from: missing; give a face of the box: +x, -x, +y, -y, +z, -z"}},
+      {"PeelAxisMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"].erase("axis");
+         });
+       },
+       {": boxes[0].deformer.axis: missing; give the curl axis, one of x, y, z"}},
+      {"PeelAngle0",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["angle_deg"] = 0;
+         });
+       },
+       {": boxes[0].deformer.angle_deg = 0: must be a number in (0, 180]"}},
+      {"PeelAngle181",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["angle_deg"] = 181;
+         });
+       },
+       {": boxes[0].deformer.angle_deg = 181: must be a number in (0, 180]"}},
+      {"PeelThickness0",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["thickness"] = 0;
+         });
+       },
+       {": boxes[0].deformer.thickness = 0: must be > 0"}},
+      {"PeelRadiusNegative",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["radius"] = -1.5;
+         });
+       },
+       {": boxes[0].deformer.radius = -1.5: must be > 0"}},
+      {"PeelRadiusMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"].erase("radius");
+         });
+       },
+       {": boxes[0].deformer.radius: missing; give the curl radius in object units"}},
+      {"PeelHingeString",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["hinge"] = "0";
+         });
+       },
+       {": boxes[0].deformer.hinge = \"0\": must be a number; any finite value"}},
+      {"PeelUnknownKeyListsPeelKeys",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformer"]["depth"] = 1;
+         });
+       },
+       {": boxes[0].deformer.depth = 1: unknown field; allowed: type, axis, from, angle_deg, "
+        "thickness, radius, hinge"}},
+      {"IncisionFromSameAxis",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"]["from"] = "-x";
+         });
+       },
+       {": boxes[0].deformer.from = \"-x\": must be a face on another axis than "
+        "boxes[0].deformer.axis = \"x\"; allowed: +y, -y, +z, -z"}},
+      {"IncisionDepth0",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"]["depth"] = 0;
+         });
+       },
+       {": boxes[0].deformer.depth = 0: must be > 0"}},
+      {"IncisionOpeningNegative",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"]["opening"] = -1;
+         });
+       },
+       {": boxes[0].deformer.opening = -1: must be > 0"}},
+      {"IncisionOpeningMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"].erase("opening");
+         });
+       },
+       {": boxes[0].deformer.opening: missing; give the width of the gap in object units"}},
+      {"IncisionDepthMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"].erase("depth");
+         });
+       },
+       {": boxes[0].deformer.depth: missing; give the depth of the cut in object units"}},
+      {"IncisionUnknownKeyListsIncisionKeys",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = incision();
+           box0(j)["deformer"]["angle_deg"] = 10;
+         });
+       },
+       {": boxes[0].deformer.angle_deg = 10: unknown field; allowed: type, axis, from, depth, "
+        "opening"}},
+      {"BoxCutAxisIsUnknown",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["axis"] = "y";
+         });
+       },
+       {": boxes[0].deformer.axis = \"y\": unknown field; allowed: type, sub_min, sub_max, "
+        "wedge"}},
+      {"BoxCutSubMaxNotAboveSubMin",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["sub_min"] = {0, 0.5, 0};
+           box0(j)["deformer"]["sub_max"] = {1, 0.5, 1};
+         });
+       },
+       {": boxes[0].deformer.sub_max[1] = 0.5: must be greater than "
+        "boxes[0].deformer.sub_min[1] = 0.5"}},
+      {"BoxCutSubMinAtDefaultMax",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["sub_min"] = {0, 0, 1};
+         });
+       },
+       {": boxes[0].deformer.sub_min[2] = 1: must be less than boxes[0].deformer.sub_max[2] = 1 "
+        "(the default"}},
+      {"BoxCutSubMaxOutOfRange",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["sub_max"] = {1, 1.5, 1};
+         });
+       },
+       {": boxes[0].deformer.sub_max[1] = 1.5: must be a number in [0, 1]"}},
+      {"BoxCutSubMinNegative",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["sub_min"] = {-0.1, 0, 0};
+         });
+       },
+       {": boxes[0].deformer.sub_min[0] = -0.1: must be a number in [0, 1]"}},
+      {"WedgeAxisMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"angle_deg", 90}};
+         });
+       },
+       {": boxes[0].deformer.wedge.axis: missing; give the wedge's axis, one of x, y, z"}},
+      {"WedgeAngleMissing",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "y"}};
+         });
+       },
+       {": boxes[0].deformer.wedge.angle_deg: missing; give the wedge's angle in degrees"}},
+      {"WedgeAngle0",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "y"}, {"angle_deg", 0}};
+         });
+       },
+       {": boxes[0].deformer.wedge.angle_deg = 0: must be a number in (0, 180]"}},
+      {"WedgeAngle270",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "y"}, {"angle_deg", 270}};
+         });
+       },
+       {": boxes[0].deformer.wedge.angle_deg = 270: must be a number in (0, 180]"}},
+      {"WedgeFromString",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "y"}, {"from_deg", "0"}, {"angle_deg", 90}};
+         });
+       },
+       {": boxes[0].deformer.wedge.from_deg = \"0\": must be a number; any finite value"}},
+      {"WedgeAxisW",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "w"}, {"angle_deg", 90}};
+         });
+       },
+       {": boxes[0].deformer.wedge.axis = \"w\": must be one of x, y, z"}},
+      {"WedgeUnknownKey",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = {{"axis", "y"}, {"angle_deg", 90}, {"to_deg", 90}};
+         });
+       },
+       {": boxes[0].deformer.wedge.to_deg = 90: unknown field; allowed: axis, from_deg, "
+        "angle_deg"}},
+      {"WedgeNotObject",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["deformer"]["wedge"] = 90;
+         });
+       },
+       {": boxes[0].deformer.wedge = 90: must be a JSON object like {\"axis\": \"y\""}},
+      {"RenderCutColourOutOfRange",
+       [] { return edit([](json& j) {
+              j["render"] = {{"cut_colour", {1, 0, 2}}};
+            }); },
+       {": render.cut_colour[2] = 2: must be a number in [0, 1]"}},
+      {"RenderInsideColourNotThree",
+       [] { return edit([](json& j) {
+              j["render"] = {{"inside_colour", {0.5, 0.5}}};
+            }); },
+       {": render.inside_colour = [0.5,0.5]: must be an array of 3 numbers"}},
+      {"RenderInsideColourNegative",
+       [] { return edit([](json& j) {
+              j["render"] = {{"inside_colour", {0.5, -0.5, 0}}};
+            }); },
+       {": render.inside_colour[1] = -0.5: must be a number in [0, 1]"}},
+      {"RenderSkippingString",
+       [] { return edit([](json& j) {
+              j["render"] = {{"skipping", "yes"}};
+            }); },
+       {": render.skipping = \"yes\": must be true or false"}},
+      {"RenderSkippingNumber",
+       [] { return edit([](json& j) {
+              j["render"] = {{"skipping", 1}};
+            }); },
+       {": render.skipping = 1: must be true or false"}},
+      {"MemoryBudgetAlphaMap",
+       [] {
+         // 1024^3 texels of 4 bytes: the alpha map alone is the whole budget.
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           box0(j)["alpha"] = {{"resolution", 1024}};
+         });
+       },
+       {": boxes[0].alpha.resolution = 1024: the textures of all boxes would take 4.0",
+        "alpha maps 4.00 GiB", "more than the budget of 4.00 GiB; lower this resolution"}},
+      {"MemoryBudgetCountsTheAlphaMap",
+       [] {
+         // D at 600^3 texels (3.22 GiB) fits alone (MemoryBudgetSummedOverBoxes); with an alpha
+         // map of 600^3 floats (0.80 GiB) it does not.
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["deformation"] = {{"resolution", 600}};
+           box0(j)["alpha"] = {{"resolution", 600}};
+         });
+       },
+       {": boxes[0].deformation.resolution = 600: the textures of all boxes would take 4.0",
+        "deformation textures 3.22 GiB, alpha maps 0.80 GiB"}},
   };
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <string>
 
 #include "library/error.h"
@@ -91,14 +92,23 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
 
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
-  GLuint sdf = 0, deformation = 0;
+  GLuint sdf = 0, deformation = 0, alpha = 0;
   size_t bytes = 0;
 };
+
+// Copies the mappings of a grid, not its texels.
+template <class T>
+void copy_mapping(Grid3<T>& to, const Grid3<T>& from) {
+  to.origin = from.origin;
+  to.spacing = from.spacing;
+  to.dims = from.dims;
+}
 
 }  // namespace
 
 struct Renderer::Impl {
-  GLuint raster = 0, raycast = 0;
+  GLuint raster = 0;
+  std::map<std::string, GLuint> raycast;  // by variant defines
   GLuint mesh_vao = 0, mesh_vbo[2] = {0, 0}, mesh_ebo = 0;
   GLsizei mesh_indices = 0;
   GLuint cube_vao = 0, cube_vbo = 0, cube_ebo = 0;
@@ -110,6 +120,7 @@ struct Renderer::Impl {
     for (auto& b : boxes) {
       glDeleteTextures(1, &b.sdf);
       glDeleteTextures(1, &b.deformation);
+      if (b.alpha) glDeleteTextures(1, &b.alpha);
     }
     boxes.clear();
   }
@@ -147,6 +158,21 @@ struct Renderer::Impl {
     fbo_h = h;
   }
 
+  // The ray-cast program of a box's variant: only the code its features need.
+  GLuint raycast_program(const BoxTextures& b, const RenderSettings& settings) {
+    std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
+    int cut = 0;
+    if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
+    defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
+    if (b.moves_nothing) defines += "#define RAYWARP_MOVES_NOTHING\n";
+    if (settings.skipping) defines += "#define RAYWARP_SKIP\n";
+    auto found = raycast.find(defines);
+    if (found != raycast.end()) return found->second;
+    GLuint program = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
+    raycast.emplace(defines, program);
+    return program;
+  }
+
   void set_camera(const Uniforms& u, const Camera& camera, int w, int h) {
     Eigen::Matrix4d vp = camera.projection_matrix(double(w) / h) * camera.view();
     u.mat4("u_view_proj", vp);
@@ -162,7 +188,6 @@ struct Renderer::Impl {
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
   const std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
   impl_->raster = link("raster.vert.glsl", "raster.frag.glsl", defines);
-  impl_->raycast = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
   // The unit cube [0, 1]^3, scaled onto each box's ray-cast region by the vertex shader.
   const float corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
@@ -185,7 +210,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 Renderer::~Renderer() {
   impl_->release_boxes();
   glDeleteProgram(impl_->raster);
-  glDeleteProgram(impl_->raycast);
+  for (auto& [defines, program] : impl_->raycast) glDeleteProgram(program);
   GLuint vaos[2] = {impl_->mesh_vao, impl_->cube_vao};
   glDeleteVertexArrays(2, vaos);
   GLuint buffers[5] = {impl_->mesh_vbo[0], impl_->mesh_vbo[1], impl_->mesh_ebo, impl_->cube_vbo,
@@ -230,18 +255,30 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
   impl_->release_boxes();
   for (const auto& b : boxes) {
     BoxGpu gpu;
-    gpu.data.box = b.box;
-    gpu.data.sdf.grid.origin = b.sdf.grid.origin;
-    gpu.data.sdf.grid.spacing = b.sdf.grid.spacing;
-    gpu.data.sdf.grid.dims = b.sdf.grid.dims;
-    gpu.data.sdf.background = b.sdf.background;
-    gpu.data.deformation.grid.origin = b.deformation.grid.origin;
-    gpu.data.deformation.grid.spacing = b.deformation.grid.spacing;
-    gpu.data.deformation.grid.dims = b.deformation.grid.dims;
+    BoxTextures& d = gpu.data;
+    d.box = b.box;
+    copy_mapping(d.sdf.grid, b.sdf.grid);
+    d.sdf.background = b.sdf.background;
+    copy_mapping(d.deformation.grid, b.deformation.grid);
+    d.region = ray_cast_region(b);
+    d.moves_nothing = b.moves_nothing;
+    d.lipschitz = b.lipschitz;
+    d.has_cut = b.has_cut;
+    d.cut_mode = b.cut_mode;
+    d.shell_thickness = b.shell_thickness;
     gpu.sdf = upload_3d(GL_R32F, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
-    gpu.deformation = upload_3d(GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
-                                reinterpret_cast<const float*>(b.deformation.grid.data.data()));
-    gpu.bytes = b.sdf.grid.size() * sizeof(float) + b.deformation.grid.size() * 4 * sizeof(float);
+    gpu.bytes = b.sdf.grid.size() * sizeof(float);
+    if (!b.moves_nothing) {
+      gpu.deformation = upload_3d(GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
+                                  reinterpret_cast<const float*>(b.deformation.grid.data.data()));
+      gpu.bytes += b.deformation.grid.size() * 4 * sizeof(float);
+    }
+    if (b.has_cut) {
+      if (b.alpha.grid.size() == 0) throw Error("a cut box has no alpha map");
+      copy_mapping(d.alpha.grid, b.alpha.grid);
+      gpu.alpha = upload_3d(GL_R32F, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
+      gpu.bytes += b.alpha.grid.size() * sizeof(float);
+    }
     impl_->boxes.push_back(gpu);
   }
 }
@@ -275,11 +312,16 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   glDepthFunc(GL_LESS);
   glDisable(GL_CULL_FACE);
 
+  const bool any_cut =
+      std::any_of(m.boxes.begin(), m.boxes.end(), [](const BoxGpu& b) { return b.data.has_cut; });
+
   // Pass 1: the mesh outside the boxes.
   Uniforms raster{m.raster};
   glUseProgram(m.raster);
   m.set_camera(raster, camera, width, height);
   raster.vec3("u_albedo", settings.colour);
+  raster.vec3("u_inside_colour", settings.inside_colour);
+  raster.i1("u_two_sided", any_cut);
   raster.i1("u_box_count", static_cast<int>(m.boxes.size()));
   for (size_t i = 0; i < m.boxes.size(); ++i) {
     char name[64];
@@ -294,28 +336,33 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     glDrawElements(GL_TRIANGLES, m.mesh_indices, GL_UNSIGNED_INT, nullptr);
   }
 
-  // Pass 2: per box, ray cast over the bounds of F(box); back faces only, so it also runs
-  // with the camera inside the bounds.
-  Uniforms rc{m.raycast};
-  glUseProgram(m.raycast);
-  m.set_camera(rc, camera, width, height);
-  rc.vec3("u_albedo", settings.colour);
-  rc.i1("u_sdf", 0);
-  rc.i1("u_deformation", 1);
-  rc.i1("u_max_steps", settings.max_steps);
-  rc.i1("u_refine_steps", settings.refine_steps);
+  // Pass 2: per box, ray cast over its region; back faces only, so it also runs with the camera
+  // inside the region.
   glEnable(GL_CULL_FACE);
   glCullFace(GL_FRONT);
   glBindVertexArray(m.cube_vao);
   for (const auto& b : m.boxes) {
+    const GLuint program = m.raycast_program(b.data, settings);
+    Uniforms rc{program};
+    glUseProgram(program);
+    m.set_camera(rc, camera, width, height);
+    rc.vec3("u_albedo", settings.colour);
+    rc.vec3("u_inside_colour", settings.inside_colour);
+    rc.vec3("u_cut_colour", settings.cut_colour);
+    rc.i1("u_sdf", 0);
+    rc.i1("u_deformation", 1);
+    rc.i1("u_alpha", 2);
+    rc.i1("u_max_steps", settings.max_steps);
+    rc.i1("u_refine_steps", settings.refine_steps);
     const auto& sdf = b.data.sdf.grid;
     const auto& def = b.data.deformation.grid;
+    const auto& alpha = b.data.alpha.grid;
     rc.mat4("u_box_to_object", b.data.box.local_to_object());
     rc.mat4("u_object_to_box", b.data.box.local_to_object().inverse());
     rc.mat3("u_box_to_object_dir", b.data.box.rotation);
     rc.vec3("u_half_extents", b.data.box.half_extents);
-    rc.vec3("u_region_lower", def.origin);
-    rc.vec3("u_region_upper", def.upper());
+    rc.vec3("u_region_lower", b.data.region.min());
+    rc.vec3("u_region_upper", b.data.region.max());
     rc.vec3("u_sdf_origin", sdf.origin);
     rc.vec3("u_sdf_size", sdf.extent());
     rc.f1("u_sdf_spacing", sdf.spacing);
@@ -323,12 +370,20 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
     rc.f1("u_def_spacing", def.spacing);
+    rc.vec3("u_alpha_origin", alpha.origin);
+    rc.vec3("u_alpha_size", alpha.extent());
+    rc.f1("u_alpha_spacing", alpha.spacing);
+    rc.f1("u_thickness", b.data.shell_thickness);
+    rc.f1("u_lipschitz", b.data.lipschitz);
+    rc.f1("u_cut_margin", cut_margin(b.data));
     rc.f1("u_step", settings.step_voxels * sdf.spacing);
     rc.f1("u_seam", kSeamVoxels * sdf.spacing);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_3D, b.deformation);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_3D, b.alpha);
     glDrawElements(GL_TRIANGLES, 36, GL_UNSIGNED_INT, nullptr);
   }
   glDisable(GL_CULL_FACE);
