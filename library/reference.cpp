@@ -591,6 +591,7 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   const Vec3& o = origin;
   const Vec3& d = direction;
   const bool hollow = box.has_cut && box.cut_mode == CutMode::Hollow;
+  const bool skip = skipping_pays(box, settings.step_voxels, settings.skipping);
   auto at = [&](double t, bool beyond_ok) { return sample_at(box, o + t * d, beyond_ok); };
   // Linear search (eq. 3), bounded by max_steps.
   const double step = settings.step_voxels * box.sdf.grid.spacing;
@@ -611,7 +612,7 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   bool hit = !hollow && value(box, s) > 0.0, front = true;
   for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
     double advance = step;
-    if (settings.skipping) advance = std::max(advance, skip_distance(box, s));
+    if (skip) advance = std::max(advance, skip_distance(box, s));
     double next_crossing = kInfinity;
     for (double tc : crossings)
       next_crossing = tc > t ? std::min(next_crossing, tc) : next_crossing;

@@ -26,4 +26,10 @@ double cut_margin(const BoxTextures& b) {
   return std::sqrt(3.0) * (b.alpha.grid.spacing + 0.5 * b.deformation.grid.spacing);
 }
 
+bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested) {
+  if (!requested) return false;
+  if (b.has_cut) return true;
+  return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.spacing;
+}
+
 }  // namespace raywarp

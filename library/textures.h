@@ -83,5 +83,10 @@ Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b);
 // sqrt(3) (alpha texel + deformation texel / 2), covering the alpha map's interpolation error
 // and the cells of D next to the cut (see shaders/raycast.frag.glsl).
 double cut_margin(const BoxTextures& b);
+// Whether empty-space skipping can pay for a box when the scene asks for it (`requested`): inside
+// a cut it always can; by the distance grid only where the longest skip, background /
+// (sqrt(3) lipschitz), exceeds the linear-search step (a twist's |I + J_D| is large enough that
+// it never does, and the skip's arithmetic would only cost).
+bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested);
 
 }  // namespace raywarp

@@ -10,6 +10,7 @@
 //  - empty-space skipping on against off: the same image.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -222,6 +223,27 @@ INSTANTIATE_TEST_SUITE_P(Bunny, SkippingTest,
                          [](const auto& info) {
                            return info.param.substr(0, info.param.find('.'));
                          });
+
+// A peel whose curl radius is below the layer's thickness folds (det J = 1 - v / R <= 0 for
+// v >= R): raywarp reports the folded volume and renders the non-folded branch, finite.
+TEST(Peel, FoldIsReportedAndRenderedFinite) {
+  Prepared p = prepare("bunny_peel.json", [](Scene& s) {
+    s.boxes[0].deformer.radius = 0.6 * s.boxes[0].deformer.thickness;
+  });
+  const PreparedBox& box = p.prepared.boxes[0];
+  EXPECT_TRUE(box.folds.folds());
+  bool warned = false;
+  for (const std::string& w : box.warnings) warned = warned || w.find("folds") != std::string::npos;
+  EXPECT_TRUE(warned);
+  for (const Eigen::Vector4f& t : box.textures.deformation.grid.data) ASSERT_TRUE(t.allFinite());
+  for (float a : box.textures.alpha.grid.data) ASSERT_TRUE(std::isfinite(a));
+  gl::FrameStats stats;
+  Image gl = render_gl(p, camera("front.json"), p.scene.render, &stats);
+  EXPECT_EQ(stats.nonfinite_pixels, 0);
+  for (float z : gl.depth) EXPECT_FALSE(std::isnan(z));
+  std::printf("[figures] folding peel: folded volume %.4g of %.4g\n", box.folds.folded_volume,
+              box.folds.box_volume);
+}
 
 // The alpha map is finite and positive exactly where the cut removes material.
 TEST(BoxCut, AlphaIsSignedDistanceOfRegion) {

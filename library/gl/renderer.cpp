@@ -165,7 +165,8 @@ struct Renderer::Impl {
     if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
     defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
     if (b.moves_nothing) defines += "#define RAYWARP_MOVES_NOTHING\n";
-    if (settings.skipping) defines += "#define RAYWARP_SKIP\n";
+    if (skipping_pays(b, settings.step_voxels, settings.skipping))
+      defines += "#define RAYWARP_SKIP\n";
     auto found = raycast.find(defines);
     if (found != raycast.end()) return found->second;
     GLuint program = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
