@@ -1,5 +1,5 @@
 // raywarp_bench: bake and frame times, medians over repeated runs (not a test).
-//   raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md]
+//   raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md] [--context KIND]
 // For each mesh (the shipped bunny, and the Stanford dragon, 202K triangles):
 //  1. bakes: a twist box over the middle 60 % of the mesh's height and a bend box around the
 //     whole mesh; times the distance-grid bake, the deformation bake, and GL frames at SIZE²
@@ -164,7 +164,7 @@ struct Row {
 
 int main(int argc, char** argv) {
   int runs = 5, frames = 7, size = 512;
-  std::string out;
+  std::string out, context_kind = "osmesa";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -182,12 +182,21 @@ int main(int argc, char** argv) {
       size = std::clamp(std::stoi(next()), 16, 4096);
     else if (a == "--out")
       out = next();
+    else if (a == "--context")
+      context_kind = next();
     else {
-      std::cerr << "usage: raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md]\n";
+      std::cerr << "usage: raywarp_bench [--runs N] [--frames N] [--size PX] [--out FILE.md] "
+                   "[--context auto|egl|osmesa]\n";
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
-  auto context = gl::create_osmesa_context();
+  std::unique_ptr<gl::Context> context;
+  try {
+    context = gl::create_context(context_kind);
+  } catch (const std::exception& e) {
+    std::cerr << "raywarp_bench: " << e.what() << "\n";
+    return 2;
+  }
   std::vector<std::pair<std::string, std::string>> meshes = {
       {"bunny", std::string(RAYWARP_SOURCE_DIR) + "/examples/meshes/bunny.ply"},
       {"dragon", std::string(RAYWARP_DATA_DIR) + "/dragon_res2.ply"}};
@@ -216,7 +225,7 @@ int main(int argc, char** argv) {
       const int def_res = 96;
       BoxTextures tex;
       tex.box = box;
-      std::vector<double> sdf_t, def_t, frame_t;
+      std::vector<double> sdf_t, def_t;
       for (int r = 0; r < runs; ++r) {
         sdf_t.push_back(time_ms([&] { tex.sdf = bake_distance_grid(mesh, box, spec); }));
         def_t.push_back(time_ms(
@@ -226,23 +235,10 @@ int main(int argc, char** argv) {
       gl::Renderer renderer;
       renderer.set_mesh(mesh);
       renderer.set_boxes({tex});
-      Camera cam;
-      Eigen::Vector3d c = 0.5 * (lo + hi);
-      double radius = 0.5 * ext.norm() * (kind == "bend" ? 1.3 : 1.0);
-      cam.target = c;
-      cam.eye = c + Eigen::Vector3d(0.25, 0.2, 1.0).normalized() * radius * 3.2;
-      cam.fov_y_deg = 40;
-      cam.near_plane = radius * 0.5;
-      cam.far_plane = radius * 10;
-      RenderSettings settings;
-      gl::FrameStats fs;
-      renderer.render(cam, size, size, settings, &fs);  // warm-up: shader compile, first upload
-      for (int f = 0; f < frames; ++f) {
-        renderer.render(cam, size, size, settings, &fs);
-        frame_t.push_back(fs.milliseconds);
-      }
+      const Camera cam = framing_camera(lo, hi, kind == "bend" ? 1.3 : 1.0);
+      const double frame_ms = frame_median(renderer, cam, size, RenderSettings(), frames);
       rows.push_back({name, deformer->describe(), static_cast<long>(stats.faces), spec.resolution,
-                      def_res, median(sdf_t), median(def_t), median(frame_t),
+                      def_res, median(sdf_t), median(def_t), frame_ms,
                       tex.sdf.grid.size() * 4.0 / (1 << 20),
                       tex.deformation.grid.size() * 16.0 / (1 << 20)});
       const Row& r = rows.back();

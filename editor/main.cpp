@@ -19,6 +19,7 @@ namespace {
 
 struct RenderOptions {
   std::string scene, output, depth, mask, camera;
+  std::string context = "auto";
   int width = 0, height = 0;
 };
 
@@ -39,7 +40,7 @@ int run_render(const RenderOptions& opt) {
   Eigen::Vector2i size = image_size(scene, camera, opt.width, opt.height);
 
   PreparedScene prepared = prepare_scene(scene, std::cerr);
-  auto context = gl::create_osmesa_context();
+  auto context = gl::create_context(opt.context);
   std::cerr << "context: " << context->description() << "\n";
   gl::Renderer renderer;
   renderer.set_mesh(prepared.mesh);
@@ -106,6 +107,12 @@ int main(int argc, char** argv) {
       "empty; the camera goes beside it in FILE.json");
   render->add_option("--mask", ropt.mask, "Also write the silhouette (PNG, 255 where covered)");
   render->add_option("--camera", ropt.camera, "Camera file overriding the scene's camera");
+  render
+      ->add_option("--context", ropt.context,
+                   "OpenGL context: auto (EGL on a GPU when there is one, else OSMesa), egl "
+                   "(headless EGL, on llvmpipe without a GPU), osmesa")
+      ->check(CLI::IsMember({"auto", "egl", "osmesa"}))
+      ->capture_default_str();
   render->add_option("--width", ropt.width, "Image width in pixels (overrides camera and scene)")
       ->check(CLI::Range(1, 8192));
   render->add_option("--height", ropt.height, "Image height in pixels (overrides camera and scene)")

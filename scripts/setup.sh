@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # Installs what raywarp needs from Debian 12's archive (only what is missing), then configures
 # and builds. zlib, blosc and Imath headers are listed because OpenVDB's CMake module needs
-# them and libopenvdb-dev does not pull them in.
+# them and libopenvdb-dev does not pull them in; libegl-mesa0 is Mesa's EGL driver (llvmpipe
+# without a GPU), which libegl1 only recommends.
 # Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
 packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboost-iostreams-dev
-          libtbb-dev libassimp-dev libosmesa6-dev libgl-dev nlohmann-json3-dev libcli11-dev
+          libtbb-dev libassimp-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0
+          nlohmann-json3-dev libcli11-dev
           libstb-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev)
 missing=()
 for p in "${packages[@]}"; do
