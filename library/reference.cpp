@@ -584,6 +584,12 @@ class Rasterizer {
 
 }  // namespace
 
+double jacobian_step(const BoxTextures& box, const Vec3& p_def, const Vec3& v, double ds) {
+  const double h = box.deformation.grid.spacing;
+  const Vec3 jv = (displacement(box, p_def + h * v) - displacement(box, p_def - h * v)) / (2.0 * h);
+  return ds / std::clamp((v + jv).norm(), 0.25, 16.0);
+}
+
 std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d& origin,
                                    const Eigen::Vector3d& direction, double t0, double t1,
                                    const RenderSettings& settings) {
@@ -612,6 +618,13 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   bool hit = !hollow && value(box, s) > 0.0, front = true;
   for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
     double advance = step;
+    if (settings.sampling == "threshold") {
+      const double watched = hollow ? s.f : value(box, s);
+      if (s.valid && std::abs(watched) < settings.threshold_voxels * box.sdf.grid.spacing)
+        advance = step * settings.fine_factor;
+    } else if (settings.sampling == "jacobian" && !box.moves_nothing) {
+      advance = jacobian_step(box, o + t * d, d, step);
+    }
     if (skip) advance = std::max(advance, skip_distance(box, s));
     double next_crossing = kInfinity;
     for (double tc : crossings)

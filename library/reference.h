@@ -37,6 +37,12 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
                                    const Eigen::Vector3d& direction, double t0, double t1,
                                    const RenderSettings& settings);
 
+// Eq. 4's step, as the shader's `jacobian` sampling takes it: ds / |(I + J_D) v| at p_def
+// (box frame) for the unit ray direction v, J_D v by a central difference of the deformation
+// texture along v at its spacing, |(I + J_D) v| clamped to [1/4, 16].
+double jacobian_step(const BoxTextures& box, const Eigen::Vector3d& p_def, const Eigen::Vector3d& v,
+                     double ds);
+
 Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
                        const Camera& camera, int width, int height, const RenderSettings& settings);
 

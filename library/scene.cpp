@@ -568,9 +568,10 @@ Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::p
 
 RenderSettings read_render(const SceneReader& r, const json& j) {
   r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
-  r.check_keys(j, "render",
-               {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
-                "colour", "cut_colour", "inside_colour", "skipping"});
+  r.check_keys(
+      j, "render",
+      {"width", "height", "step_voxels", "max_steps", "refine_steps", "background", "colour",
+       "cut_colour", "inside_colour", "skipping", "sampling", "threshold_voxels", "fine_factor"});
   RenderSettings s;
   if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
   if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
@@ -592,6 +593,14 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
       r.fail("render.skipping", j["skipping"], "must be true or false");
     s.skipping = j["skipping"].get<bool>();
   }
+  if (j.contains("sampling"))
+    s.sampling = r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian"},
+                          " (bounded is not available in this version)");
+  if (j.contains("threshold_voxels"))
+    s.threshold_voxels =
+        r.number(j["threshold_voxels"], "render.threshold_voxels", {0.0, 64.0, true, false});
+  if (j.contains("fine_factor"))
+    s.fine_factor = r.number(j["fine_factor"], "render.fine_factor", {0.0, 1.0, true, false});
   return s;
 }
 

@@ -65,6 +65,12 @@ struct RenderSettings {
   Eigen::Vector3d cut_colour{0.75, 0.18, 0.16};    // solid cut faces, linear RGB
   Eigen::Vector3d inside_colour{0.3, 0.42, 0.62};  // the inside of a shell (back faces)
   bool skipping = true;  // empty-space skipping (cut region and far from the surface)
+  // Linear-search step rule: "linear" (fixed step), "threshold" (Hadwiger et al. 2005: a step
+  // shrunk by fine_factor where |value| < threshold_voxels voxels), "jacobian" (eq. 4:
+  // step / |(I + J_D) v|, clamped to [step / 16, 4 step]).
+  std::string sampling = "linear";
+  double threshold_voxels = 2.0;  // (0, 64]
+  double fine_factor = 0.25;      // (0, 1]
 };
 
 // The textures of all boxes of a scene together must fit in this many bytes; load_scene checks

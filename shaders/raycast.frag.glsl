@@ -5,7 +5,7 @@
 // Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
 // 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample
 // just beyond the box after one inside it reads the distance grid, for the caps of a box cut);
-// RAYWARP_SKIP (empty-space skipping).
+// RAYWARP_SKIP (empty-space skipping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian).
 #include "camera.glsl"
 #include "shading.glsl"
 uniform mat4 u_object_to_box;
@@ -37,6 +37,10 @@ uniform vec3 u_cut_colour;
 #endif
 #if RAYWARP_CUT == 3
 uniform float u_thickness;        // tau of eq. 7
+#endif
+#if RAYWARP_SAMPLING == 1
+uniform float u_threshold;        // object units
+uniform float u_fine_factor;
 #endif
 #ifdef RAYWARP_SKIP
 uniform float u_lipschitz;        // bound of |I + J_D| outside the cut
@@ -103,6 +107,13 @@ float value(Sample s) {
 #endif
 }
 
+// The value whose nearness to 0 the threshold method watches.
+#if RAYWARP_CUT == 1
+#define RAYWARP_THRESHOLD_VALUE s.f
+#else
+#define RAYWARP_THRESHOLD_VALUE value(s)
+#endif
+
 #ifdef RAYWARP_SKIP
 // How far the ray may advance without passing a hit. Trilinear interpolation of a texture whose
 // texels differ by at most one spacing per axis is sqrt(3)-Lipschitz, and f(p' + D(p')) is
@@ -122,6 +133,16 @@ float skip_distance(Sample s) {
   skip = min(skip, -s.a - u_cut_margin);  // the bound holds only away from the cut
 #endif
   return skip;
+}
+#endif
+
+#if RAYWARP_SAMPLING == 2 && !defined(RAYWARP_MOVES_NOTHING)
+// Eq. 4: dt = ds / |(I + J_D) v|, the step whose preimage moves by ds; J_D by central
+// differences of D. Clamped to [ds / 16, 4 ds] so that every ray stays bounded.
+float jacobian_step(vec3 p_def, vec3 v) {
+  float h = u_def_spacing;
+  vec3 jv = (deformation(p_def + h * v).xyz - deformation(p_def - h * v).xyz) / (2.0 * h);
+  return u_step / clamp(length(v + jv), 0.25, 16.0);
 }
 #endif
 
@@ -189,6 +210,11 @@ void main() {
   // Linear search, bounded by u_max_steps (+ the 6 face samples).
   for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
     float advance = u_step;
+#if RAYWARP_SAMPLING == 1
+    if (s.valid && abs(RAYWARP_THRESHOLD_VALUE) < u_threshold) advance = u_step * u_fine_factor;
+#elif RAYWARP_SAMPLING == 2 && !defined(RAYWARP_MOVES_NOTHING)
+    advance = jacobian_step(o + t * d, d);
+#endif
 #ifdef RAYWARP_SKIP
     advance = max(advance, skip_distance(s));
 #endif

@@ -1079,6 +1079,21 @@ std::vector<BadCase> bad_cases() {
               j["render"] = {{"skipping", 1}};
             }); },
        {": render.skipping = 1: must be true or false"}},
+      {"RenderSamplingUnknown",
+       [] { return edit([](json& j) {
+              j["render"] = {{"sampling", "bounded"}};
+            }); },
+       {": render.sampling = \"bounded\": must be one of linear, threshold, jacobian"}},
+      {"RenderThresholdZero",
+       [] { return edit([](json& j) {
+              j["render"] = {{"threshold_voxels", 0}};
+            }); },
+       {": render.threshold_voxels = 0: must be a number in (0, 64]"}},
+      {"RenderFineFactorAboveOne",
+       [] { return edit([](json& j) {
+              j["render"] = {{"fine_factor", 1.5}};
+            }); },
+       {": render.fine_factor = 1.5: must be a number in (0, 1]"}},
       {"MemoryBudgetAlphaMap",
        [] {
          // 1024^3 texels of 4 bytes: the alpha map alone is the whole budget.

@@ -167,6 +167,10 @@ struct Renderer::Impl {
     if (b.moves_nothing) defines += "#define RAYWARP_MOVES_NOTHING\n";
     if (skipping_pays(b, settings.step_voxels, settings.skipping))
       defines += "#define RAYWARP_SKIP\n";
+    const int sampling = settings.sampling == "threshold"  ? 1
+                         : settings.sampling == "jacobian" ? 2
+                                                           : 0;
+    defines += "#define RAYWARP_SAMPLING " + std::to_string(sampling) + "\n";
     auto found = raycast.find(defines);
     if (found != raycast.end()) return found->second;
     GLuint program = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
@@ -380,6 +384,8 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.f1("u_lipschitz", b.data.lipschitz);
     rc.f1("u_cut_margin", cut_margin(b.data));
     rc.f1("u_step", settings.step_voxels * sdf.spacing);
+    rc.f1("u_threshold", settings.threshold_voxels * sdf.spacing);
+    rc.f1("u_fine_factor", settings.fine_factor);
     rc.f1("u_seam", kSeamVoxels * sdf.spacing);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);
