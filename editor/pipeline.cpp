@@ -204,6 +204,10 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
                              fmt("%.3g", ray_length) +
                              " across the deformed box: long rays stop early and miss");
     for (const auto& w : box.warnings) log << tag << "warning: " << w << "\n";
+    if (scene.render.texture_bits == 16) {
+      round_textures_to_half(box.textures);
+      log << tag << "textures rounded to 16-bit floats\n";
+    }
     out.boxes.push_back(std::move(box));
   }
   return out;

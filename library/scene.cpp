@@ -568,10 +568,10 @@ Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::p
 
 RenderSettings read_render(const SceneReader& r, const json& j) {
   r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
-  r.check_keys(
-      j, "render",
-      {"width", "height", "step_voxels", "max_steps", "refine_steps", "background", "colour",
-       "cut_colour", "inside_colour", "skipping", "sampling", "threshold_voxels", "fine_factor"});
+  r.check_keys(j, "render",
+               {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
+                "colour", "cut_colour", "inside_colour", "skipping", "sampling", "threshold_voxels",
+                "fine_factor", "texture_bits"});
   RenderSettings s;
   if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
   if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
@@ -601,6 +601,12 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
         r.number(j["threshold_voxels"], "render.threshold_voxels", {0.0, 64.0, true, false});
   if (j.contains("fine_factor"))
     s.fine_factor = r.number(j["fine_factor"], "render.fine_factor", {0.0, 1.0, true, false});
+  if (j.contains("texture_bits")) {
+    const json& v = j["texture_bits"];
+    if (!v.is_number_integer() || (v.get<double>() != 16 && v.get<double>() != 32))
+      r.fail("render.texture_bits", v, "must be 16 or 32");
+    s.texture_bits = v.get<int>();
+  }
   return s;
 }
 

@@ -71,6 +71,7 @@ struct RenderSettings {
   std::string sampling = "linear";
   double threshold_voxels = 2.0;  // (0, 64]
   double fine_factor = 0.25;      // (0, 1]
+  int texture_bits = 32;          // 32 or 16: float precision of the textures on the GPU
 };
 
 // The textures of all boxes of a scene together must fit in this many bytes; load_scene checks

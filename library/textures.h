@@ -75,7 +75,16 @@ struct BoxTextures {
   CutMode cut_mode = CutMode::Solid;
   double shell_thickness = 0.0;  // tau, object units (thick shell)
   AlphaMap alpha;                // empty unless has_cut
+  // Textures stored as 16-bit floats on the GPU (their values already rounded to half precision
+  // by round_to_half, so the CPU reference reads what the GPU does).
+  bool half_precision = false;
 };
+
+// x rounded to the nearest IEEE half-precision value (ties to even), as a float; magnitudes
+// beyond the largest half (65504) are clamped to it, so the result stays finite.
+float round_to_half(float x);
+// Rounds every texel of the box's textures to half precision and sets half_precision.
+void round_textures_to_half(BoxTextures& b);
 
 // Where rays are cast for a box: `region`, or the deformation texture's region when unset.
 Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b);

@@ -1089,6 +1089,11 @@ std::vector<BadCase> bad_cases() {
               j["render"] = {{"threshold_voxels", 0}};
             }); },
        {": render.threshold_voxels = 0: must be a number in (0, 64]"}},
+      {"RenderTextureBits",
+       [] { return edit([](json& j) {
+              j["render"] = {{"texture_bits", 8}};
+            }); },
+       {": render.texture_bits = 8: must be 16 or 32"}},
       {"RenderFineFactorAboveOne",
        [] { return edit([](json& j) {
               j["render"] = {{"fine_factor", 1.5}};

@@ -271,18 +271,22 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
     d.has_cut = b.has_cut;
     d.cut_mode = b.cut_mode;
     d.shell_thickness = b.shell_thickness;
-    gpu.sdf = upload_3d(GL_R32F, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
-    gpu.bytes = b.sdf.grid.size() * sizeof(float);
+    d.half_precision = b.half_precision;
+    const GLenum r_format = b.half_precision ? GL_R16F : GL_R32F;
+    const size_t channel_bytes = b.half_precision ? 2 : 4;
+    gpu.sdf = upload_3d(r_format, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
+    gpu.bytes = b.sdf.grid.size() * channel_bytes;
     if (!b.moves_nothing) {
-      gpu.deformation = upload_3d(GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
-                                  reinterpret_cast<const float*>(b.deformation.grid.data.data()));
-      gpu.bytes += b.deformation.grid.size() * 4 * sizeof(float);
+      gpu.deformation =
+          upload_3d(b.half_precision ? GL_RGBA16F : GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
+                    reinterpret_cast<const float*>(b.deformation.grid.data.data()));
+      gpu.bytes += b.deformation.grid.size() * 4 * channel_bytes;
     }
     if (b.has_cut) {
       if (b.alpha.grid.size() == 0) throw Error("a cut box has no alpha map");
       copy_mapping(d.alpha.grid, b.alpha.grid);
-      gpu.alpha = upload_3d(GL_R32F, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
-      gpu.bytes += b.alpha.grid.size() * sizeof(float);
+      gpu.alpha = upload_3d(r_format, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
+      gpu.bytes += b.alpha.grid.size() * channel_bytes;
     }
     impl_->boxes.push_back(gpu);
   }
