@@ -4,6 +4,7 @@
 #include <atomic>
 #include <charconv>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <string>
 #include <thread>
@@ -243,6 +244,36 @@ double displacement_lipschitz(const Deformer& deformer, const DeformationTexture
   // Float rounding of the texels (relative 2^-24 of |D|, divided by the spacing) is far below
   // this margin.
   return (1.0 + worst) * (1.0 + 1e-5);
+}
+
+double deformation_texture_error(const Deformer& deformer, const DeformationTexture& texture,
+                                 int stride) {
+  const Grid3<Eigen::Vector4f>& grid = texture.grid;
+  stride = std::max(stride, 1);
+  const int slices = std::max(0, (grid.dims.z() - 1 + stride - 1) / stride);
+  std::vector<double> slice_max(std::max(slices, 1), 0.0);
+  const bool cut = deformer.has_cut();
+  for_each_slice(slices, [&](int ks) {
+    const int k = ks * stride;
+    if (k + 1 >= grid.dims.z()) return;
+    double worst = 0.0;
+    for (int j = 0; j + 1 < grid.dims.y(); j += stride)
+      for (int i = 0; i + 1 < grid.dims.x(); i += stride) {
+        bool valid = true;
+        for (int c = 0; c < 8 && valid; ++c)
+          valid = grid.at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)).w() >= 0.5f;
+        if (!valid) continue;
+        const Eigen::Vector3d centre =
+            grid.texel_centre(i, j, k) + Eigen::Vector3d::Constant(0.5 * grid.spacing);
+        if (cut && deformer.alpha(centre) > -std::sqrt(3.0) * grid.spacing) continue;
+        const Eigen::Vector3d exact = deformer.inverse(centre) - centre;
+        worst = std::max(worst, (grid.sample(centre).head<3>() - exact).norm());
+      }
+    slice_max[ks] = worst;
+  });
+  double worst = 0.0;
+  for (double w : slice_max) worst = std::max(worst, w);
+  return worst;
 }
 
 }  // namespace raywarp

@@ -85,6 +85,12 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
 DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                                     int resolution);
 
+// The interpolation error of a baked texture: the largest |D(p') - (F^-1(p') - p')| over the
+// centres of the texture's cells (where trilinear interpolation is worst, between texels) whose
+// eight texels are valid and lie outside the cut, every `stride`-th cell along each axis.
+double deformation_texture_error(const Deformer& deformer, const DeformationTexture& texture,
+                                 int stride = 2);
+
 // Bakes the alpha map A = deformer.alpha at the texel centres of a grid over `region` (box
 // frame), `resolution` texels along its longest side. Requires deformer.has_cut().
 AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution);

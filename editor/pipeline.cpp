@@ -186,6 +186,19 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
           << " s)\n";
     }
 
+    if (!tex.moves_nothing) {
+      box.texture_error = deformation_texture_error(*box.deformer, def);
+      const double voxels = box.texture_error / sdf.grid.spacing;
+      log << tag << "deformation texture error at cell centres: " << fmt("%.3g", box.texture_error)
+          << " units (" << fmt("%.2g", voxels) << " voxels)\n";
+      if (voxels > 1.0)
+        box.warnings.push_back(
+            "the deformation texture misplaces points by up to " + fmt("%.3g", box.texture_error) +
+            " units (" + fmt("%.2g", voxels) +
+            " voxels of the distance grid) between its texels: raise deformation.resolution "
+            "(now " +
+            std::to_string(spec.deformation_resolution) + ")");
+    }
     box.folds = measure_folds(*box.deformer, spec.box.half_extents);
     if (box.folds.folds())
       box.warnings.push_back(

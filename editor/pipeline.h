@@ -18,6 +18,7 @@ struct PreparedBox {
   BoxTextures textures;
   std::shared_ptr<const Deformer> deformer;
   FoldReport folds;
+  double texture_error = 0.0;  // deformation_texture_error, object units
   std::vector<std::string> warnings;
 };
 
