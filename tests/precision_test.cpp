@@ -81,7 +81,8 @@ TEST_P(PrecisionTest, ErrorAgainstGroundTruth) {
 INSTANTIATE_TEST_SUITE_P(Bunny, PrecisionTest,
                          ::testing::Values(Case{"bunny_twist.json", 32},
                                            Case{"bunny_twist.json", 16},
-                                           Case{"bunny_bend.json", 32}, Case{"bunny_bend.json", 16}),
+                                           Case{"bunny_bend.json", 32},
+                                           Case{"bunny_bend.json", 16}),
                          [](const auto& info) {
                            std::string s = info.param.scene.substr(0, info.param.scene.find('.')) +
                                            "_" + std::to_string(info.param.bits);
