@@ -128,11 +128,17 @@ Mesh load_mesh(const std::string& path) {
   return weld(merged);
 }
 
+Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh) {
+  Eigen::AlignedBox3d bounds;
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) bounds.extend(mesh.V.row(v).transpose());
+  return bounds;
+}
+
 MeshStats mesh_stats(const Mesh& mesh) {
   MeshStats stats;
   stats.vertices = mesh.V.rows();
   stats.faces = mesh.F.rows();
-  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) stats.bounds.extend(mesh.V.row(v).transpose());
+  stats.bounds = mesh_bounds(mesh);
 
   std::vector<std::pair<int, int>> edges;
   edges.reserve(3 * static_cast<size_t>(mesh.F.rows()));

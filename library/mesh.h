@@ -26,7 +26,8 @@ struct MeshStats {
 // merged into one, identical vertices joined, polygons triangulated. Throws Error naming the file.
 Mesh load_mesh(const std::string& path);
 MeshStats mesh_stats(const Mesh& mesh);
-std::string describe(const MeshStats& stats);  // one line for the terminal
+Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh);  // of the vertices
+std::string describe(const MeshStats& stats);       // one line for the terminal
 // Per-vertex normals, area-weighted face normals (unit; zero for isolated vertices).
 Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> vertex_normals(const Mesh& mesh);
 

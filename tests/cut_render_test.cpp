@@ -35,11 +35,7 @@ gl::Context& context() {
   return *ctx;
 }
 
-double diagonal_of(const Mesh& m) {
-  Eigen::AlignedBox3d b;
-  for (Eigen::Index i = 0; i < m.V.rows(); ++i) b.extend(Eigen::Vector3d(m.V.row(i).transpose()));
-  return b.diagonal().norm();
-}
+double diagonal_of(const Mesh& m) { return mesh_bounds(m).diagonal().norm(); }
 
 struct Prepared {
   Scene scene;

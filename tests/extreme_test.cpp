@@ -57,10 +57,7 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
     Mesh truth_mesh =
         ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.5 * box.textures.sdf.grid.spacing);
     Image truth = rasterize(truth_mesh, *scene.camera, kSize, kSize, scene.render);
-    Eigen::AlignedBox3d bounds;
-    for (Eigen::Index i = 0; i < truth_mesh.V.rows(); ++i)
-      bounds.extend(Eigen::Vector3d(truth_mesh.V.row(i).transpose()));
-    ImageComparison c = compare_images(gl, truth, 0.01 * bounds.diagonal().norm());
+    ImageComparison c = compare_images(gl, truth, 0.01 * mesh_bounds(truth_mesh).diagonal().norm());
     char buf[160];
     std::snprintf(buf, sizeof buf, "IoU %.4f, %.2f %% over 1 %% of diag", c.iou,
                   100 * c.fraction_over);

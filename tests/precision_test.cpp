@@ -62,10 +62,7 @@ TEST_P(PrecisionTest, ErrorAgainstGroundTruth) {
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   Image cpu =
       reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
-  Eigen::AlignedBox3d bounds;
-  for (Eigen::Index i = 0; i < truth_mesh.V.rows(); ++i)
-    bounds.extend(Eigen::Vector3d(truth_mesh.V.row(i).transpose()));
-  const double diagonal = bounds.diagonal().norm();
+  const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_truth = compare_images(gl, truth, 0.01 * diagonal);
   ImageComparison vs_cpu = compare_images(gl, cpu, 0.01 * diagonal);
   std::printf(

@@ -30,12 +30,6 @@ gl::Context& context() {
   return *ctx;
 }
 
-Eigen::AlignedBox3d bounds_of(const Mesh& m) {
-  Eigen::AlignedBox3d b;
-  for (Eigen::Index i = 0; i < m.V.rows(); ++i) b.extend(Eigen::Vector3d(m.V.row(i).transpose()));
-  return b;
-}
-
 struct Case {
   std::string scene, camera;
 };
@@ -64,7 +58,7 @@ TEST_P(RenderTest, MatchesGroundTruthAndReference) {
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   Mesh truth_mesh = ground_truth_mesh(prepared.mesh, box.textures.box, F, quarter_voxel);
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
-  double diagonal = bounds_of(truth_mesh).diagonal().norm();
+  double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_truth = compare_images(gl_image, truth, 0.01 * diagonal);
 
   Image cpu =

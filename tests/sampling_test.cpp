@@ -45,10 +45,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
   Mesh truth_mesh =
       ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
-  Eigen::AlignedBox3d bounds;
-  for (Eigen::Index i = 0; i < truth_mesh.V.rows(); ++i)
-    bounds.extend(Eigen::Vector3d(truth_mesh.V.row(i).transpose()));
-  const double diagonal = bounds.diagonal().norm();
+  const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_cpu = compare_images(gl, cpu, 0.01 * diagonal);
   ImageComparison vs_truth = compare_images(gl, truth, 0.01 * diagonal);
   std::printf(
