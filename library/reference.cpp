@@ -134,35 +134,47 @@ class TriangleBvh {
     centroids_.clear();
   }
 
-  // The nearest hit with t in [t_min, t_max] that `accept(t)` keeps.
-  template <class Accept>
-  std::optional<MeshHit> nearest(const Vec3& o, const Vec3& d, double t_min, double t_max,
-                                 const Accept& accept) const {
-    if (nodes_.empty()) return std::nullopt;
-    MeshHit best;
-    double best_t = t_max;
+  // Calls visit(face, hit) for every triangle the ray meets with t >= t_min whose node the ray
+  // enters before limit(), which visit may lower as it goes.
+  template <class Limit, class Visit>
+  void for_each_hit(const Vec3& o, const Vec3& d, double t_min, const Limit& limit,
+                    const Visit& visit) const {
+    if (nodes_.empty()) return;
     int stack[128];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
       const Node& node = nodes_[stack[--top]];
-      double t0 = t_min, t1 = best_t;
+      double t0 = t_min, t1 = limit();
       if (!clip_to_aabb(o, d, node.lower, node.upper, t0, t1)) continue;
       if (node.count > 0) {
         for (int k = node.first; k < node.first + node.count; ++k) {
           int f = order_[k];
           auto h =
               intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1), mesh_.vertex(f, 2));
-          if (h && h->t >= t_min && h->t <= best_t && accept(h->t)) {
-            best_t = h->t;
-            best = MeshHit{f, *h};
-          }
+          if (h) visit(f, *h);
         }
       } else {
         stack[top++] = node.right;
         stack[top++] = node.left;
       }
     }
+  }
+
+  // The nearest hit with t in [t_min, t_max] that `accept(t)` keeps.
+  template <class Accept>
+  std::optional<MeshHit> nearest(const Vec3& o, const Vec3& d, double t_min, double t_max,
+                                 const Accept& accept) const {
+    MeshHit best;
+    double best_t = t_max;
+    for_each_hit(
+        o, d, t_min, [&] { return best_t; },
+        [&](int f, const TriangleHit& h) {
+          if (h.t >= t_min && h.t <= best_t && accept(h.t)) {
+            best_t = h.t;
+            best = MeshHit{f, h};
+          }
+        });
     if (best.face < 0) return std::nullopt;
     return best;
   }
@@ -170,26 +182,9 @@ class TriangleBvh {
   // The number of triangles the ray meets at parameters t > t_from.
   int count_after(const Vec3& o, const Vec3& d, double t_from) const {
     int count = 0;
-    if (nodes_.empty()) return count;
-    int stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      double t0 = t_from, t1 = kInfinity;
-      if (!clip_to_aabb(o, d, node.lower, node.upper, t0, t1)) continue;
-      if (node.count > 0) {
-        for (int k = node.first; k < node.first + node.count; ++k) {
-          int f = order_[k];
-          auto h =
-              intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1), mesh_.vertex(f, 2));
-          if (h && h->t > t_from) ++count;
-        }
-      } else {
-        stack[top++] = node.right;
-        stack[top++] = node.left;
-      }
-    }
+    for_each_hit(
+        o, d, t_from, [] { return kInfinity; },
+        [&](int, const TriangleHit& h) { count += h.t > t_from; });
     return count;
   }
 
