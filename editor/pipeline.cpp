@@ -1,5 +1,6 @@
 #include "editor/pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -220,6 +221,15 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
     if (scene.render.texture_bits == 16) {
       round_textures_to_half(box.textures);
       log << tag << "textures rounded to 16-bit floats\n";
+    }
+    if (scene.render.sampling == "bounded" && !tex.moves_nothing) {
+      tex.step_bounds = bake_step_bounds(tex.sdf, tex.deformation);
+      const StepBounds& sb = tex.step_bounds;
+      float lo = *std::min_element(sb.bricks.data.begin(), sb.bricks.data.end());
+      float hi = *std::max_element(sb.bricks.data.begin(), sb.bricks.data.end());
+      log << tag << "bounded tracing: |grad f| <= " << fmt("%.3g", sb.sdf_lipschitz)
+          << ", |I + J_D| per brick of " << sb.brick_cells << "^3 cells in [" << fmt("%.3g", lo)
+          << ", " << fmt("%.3g", hi) << "] (" << dims_string(sb.bricks.dims) << " bricks)\n";
     }
     out.boxes.push_back(std::move(box));
   }

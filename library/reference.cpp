@@ -292,6 +292,75 @@ Vec3 displacement(const BoxTextures& box, const Vec3& p_def) {
   return box.deformation.grid.sample(p_def).head<3>();
 }
 
+// The `bounded` tracer's function (see StepBounds): g = min(f(p), b(p), (w - 1/2) / L_w) at
+// p = p' + D(p'), > 0 exactly where a sample is inside; `face` gets b(p), `f` gets f(p).
+double bounded_g(const BoxTextures& box, const Vec3& p_def, double* face, double* f) {
+  const Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
+  const Vec3 p = p_def + dv.head<3>();
+  *f = box.sdf.grid.sample(p).value();
+  *face = (box.box.half_extents - p.cwiseAbs()).minCoeff();
+  double g = std::min(*f, *face);
+  if (box.step_bounds.validity_lipschitz > 0.0)
+    g = std::min(g, (dv.w() - 0.5) / box.step_bounds.validity_lipschitz);
+  return g;
+}
+
+// The bound of g's Lipschitz constant over the brick of p_def and its neighbours.
+double bounded_lipschitz(const BoxTextures& box, const Vec3& p_def) {
+  const StepBounds& sb = box.step_bounds;
+  Eigen::Vector3i b;
+  for (int a = 0; a < 3; ++a)
+    b[a] = std::clamp(
+        static_cast<int>(std::floor((p_def[a] - sb.bricks.origin[a]) / sb.bricks.spacing)), 0,
+        sb.bricks.dims[a] - 1);
+  return std::max(sb.sdf_lipschitz, 1.0) * sb.bricks.at(b.x(), b.y(), b.z());
+}
+
+// Sphere tracing of g over [t0, t1] (the shader's RAYWARP_SAMPLING 3), with the linear search's
+// extra samples just before each box face plane (`crossings`, ray parameters). A sample with
+// g > -epsilon is the hit (lo = hi = its t; if g > 0 after a step, which only rounding allows,
+// lo is the previous sample). At a face sample, a value within `seam` of the surface also is, as
+// in the linear search. Returns whether it hit; the steps never pass a point where g > 0.
+bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double t0, double t1,
+                    const double (&crossings)[6], const RenderSettings& settings, double* lo,
+                    double* hi) {
+  if (box.step_bounds.empty())
+    throw Error(
+        "ray_cast_box: sampling \"bounded\" needs the box's step bounds "
+        "(bake_step_bounds)");
+  const double h = box.sdf.grid.spacing;
+  const double epsilon = settings.hit_epsilon_voxels * h, seam = kSeamVoxels * h;
+  const double longest = box.step_bounds.bricks.spacing;
+  double t = t0, face = 0.0, f = 0.0;
+  double g = bounded_g(box, o + t * d, &face, &f);
+  if (g > -epsilon) {
+    *lo = *hi = t;
+    return true;
+  }
+  for (int i = 1; i <= settings.max_steps + 6 && t < t1; ++i) {
+    double next_crossing = kInfinity;
+    for (double tc : crossings)
+      next_crossing = tc > t ? std::min(next_crossing, tc) : next_crossing;
+    const double target =
+        std::min(t + std::min(-g / bounded_lipschitz(box, o + t * d), longest), t1);
+    const bool at_face = next_crossing < target;
+    const double tn = at_face ? next_crossing : target;
+    const double gn = bounded_g(box, o + tn * d, &face, &f);
+    if (gn > 0.0) {  // only by rounding: refine between the two samples
+      *lo = t;
+      *hi = tn;
+      return true;
+    }
+    if (gn > -epsilon || (at_face && value(box, sample_at(box, o + tn * d, true)) > -seam)) {
+      *lo = *hi = tn;
+      return true;
+    }
+    t = tn;
+    g = gn;
+  }
+  return false;
+}
+
 // Outward normal of the deformed surface, eq. 5: (I + J_D)^T n(p' + D(p')) with n = -grad f
 // (f > 0 inside), both derivatives by central differences of the textures at their own
 // spacing (not normalised).
@@ -611,6 +680,11 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   bool was_in_box = box.box.contains_local(o + t0 * d);
   Sample s = at(t0, false);
   bool hit = !hollow && value(box, s) > 0.0, front = true;
+  const bool bounded = settings.sampling == "bounded" && !box.has_cut && !box.moves_nothing;
+  if (bounded) {
+    hit = bounded_search(box, o, d, t0, t1, crossings, settings, &lo, &hi);
+    t = t1;  // no linear search
+  }
   for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
     double advance = step;
     if (settings.sampling == "threshold") {

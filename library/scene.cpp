@@ -571,7 +571,7 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
   r.check_keys(j, "render",
                {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
                 "colour", "cut_colour", "inside_colour", "skipping", "sampling", "threshold_voxels",
-                "fine_factor", "texture_bits"});
+                "fine_factor", "hit_epsilon_voxels", "texture_bits"});
   RenderSettings s;
   if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
   if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
@@ -594,13 +594,16 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
     s.skipping = j["skipping"].get<bool>();
   }
   if (j.contains("sampling"))
-    s.sampling = r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian"},
-                          " (bounded is not available in this version)");
+    s.sampling =
+        r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian", "bounded"});
   if (j.contains("threshold_voxels"))
     s.threshold_voxels =
         r.number(j["threshold_voxels"], "render.threshold_voxels", {0.0, 64.0, true, false});
   if (j.contains("fine_factor"))
     s.fine_factor = r.number(j["fine_factor"], "render.fine_factor", {0.0, 1.0, true, false});
+  if (j.contains("hit_epsilon_voxels"))
+    s.hit_epsilon_voxels =
+        r.number(j["hit_epsilon_voxels"], "render.hit_epsilon_voxels", {0.0, 1.0, true, false});
   if (j.contains("texture_bits")) {
     const json& v = j["texture_bits"];
     if (!v.is_number_integer() || (v.get<double>() != 16 && v.get<double>() != 32))
@@ -644,6 +647,15 @@ Scene load_scene(const std::filesystem::path& path) {
       r.required(root, "", "boxes", "give a list of 1 to " + std::to_string(kMaxBoxes) + " boxes"));
   if (root.contains("camera")) scene.camera = read_camera(r, root["camera"], folder);
   if (root.contains("render")) scene.render = read_render(r, root["render"]);
+  if (scene.render.sampling == "bounded")
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      const std::string& type = scene.boxes[i].deformer.type;
+      if (type == "peel" || type == "incision" || type == "box_cut")
+        throw Error(path.string() + ": render.sampling = \"bounded\": boxes[" + std::to_string(i) +
+                    "].deformer.type is \"" + type +
+                    "\", a cut; bounded tracing needs a continuous deformation (twist, bend): use "
+                    "linear, threshold or jacobian");
+    }
   return scene;
 }
 

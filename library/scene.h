@@ -67,10 +67,14 @@ struct RenderSettings {
   bool skipping = true;  // empty-space skipping (cut region and far from the surface)
   // Linear-search step rule: "linear" (fixed step), "threshold" (Hadwiger et al. 2005: a step
   // shrunk by fine_factor where |value| < threshold_voxels voxels), "jacobian" (eq. 4:
-  // step / |(I + J_D) v|, clamped to [step / 16, 4 step]).
+  // step / |(I + J_D) v|, clamped to [step / 16, 4 step]), "bounded" (sphere tracing of
+  // g = f(p' + D(p')) with steps bounded by Lipschitz constants per brick of D).
   std::string sampling = "linear";
   double threshold_voxels = 2.0;  // (0, 64]
   double fine_factor = 0.25;      // (0, 1]
+  // "bounded": sphere tracing with Lipschitz-bounded steps (see StepBounds); a sample where
+  // g > -hit_epsilon_voxels voxels counts as the hit. Continuous deformations only.
+  double hit_epsilon_voxels = 0.02;  // (0, 1]
   int texture_bits = 32;          // 32 or 16: float precision of the textures on the GPU
 };
 

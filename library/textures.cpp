@@ -1,7 +1,9 @@
 #include "library/textures.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace raywarp {
 
@@ -52,6 +54,125 @@ bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested) {
   if (!requested) return false;
   if (b.has_cut) return true;
   return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.spacing;
+}
+
+namespace {
+
+// Rounding of float texels and of the GPU's float arithmetic is far below this relative margin.
+constexpr double kBoundMargin = 1.0 + 1e-4;
+
+// Calls cell(i, j, k) for every interpolation cell of a grid: the cell between texel centres
+// (i, j, k) and (i + 1, j + 1, k + 1), with the upper index clamped on an axis of one texel.
+template <class F>
+void for_each_cell(const Eigen::Vector3i& dims, F&& cell) {
+  const Eigen::Vector3i cells = (dims.array() - 1).max(1);
+  for (int k = 0; k < cells.z(); ++k)
+    for (int j = 0; j < cells.y(); ++j)
+      for (int i = 0; i < cells.x(); ++i) cell(i, j, k);
+}
+
+}  // namespace
+
+double interpolant_lipschitz(const Grid3<float>& grid) {
+  if (grid.data.empty()) return 0.0;
+  double worst = 0.0;
+  const Eigen::Vector3i& n = grid.dims;
+  for_each_cell(n, [&](int i, int j, int k) {
+    const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
+              k1 = std::min(k + 1, n.z() - 1);
+    const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
+    double sum = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      double edge = 0.0;
+      for (int u = 0; u < 2; ++u)
+        for (int v = 0; v < 2; ++v) {
+          int lo[3], hi[3];
+          const int b = (a + 1) % 3, c = (a + 2) % 3;
+          const int* idx[3] = {is, js, ks};
+          lo[a] = idx[a][0];
+          hi[a] = idx[a][1];
+          lo[b] = hi[b] = idx[b][u];
+          lo[c] = hi[c] = idx[c][v];
+          edge = std::max(edge, std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
+                                         double(grid.at(lo[0], lo[1], lo[2]))));
+        }
+      sum += edge * edge;
+    }
+    worst = std::max(worst, std::sqrt(sum));
+  });
+  return worst / grid.spacing * kBoundMargin;
+}
+
+StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
+                            int brick_cells) {
+  StepBounds out;
+  out.brick_cells = std::max(1, brick_cells);
+  out.sdf_lipschitz = interpolant_lipschitz(sdf.grid);
+  const Grid3<Eigen::Vector4f>& d = deformation.grid;
+  if (d.data.empty()) return out;
+  Grid3<float> validity(d.origin, d.spacing, d.dims);
+  for (size_t i = 0; i < d.data.size(); ++i) validity.data[i] = d.data[i].w();
+  out.validity_lipschitz = interpolant_lipschitz(validity);
+
+  // Per cell: in a cell, column a of J_D is a bilinear blend of the cell's four a-edge
+  // differences (/ spacing). With J0 their mean per column, ||I + J(x)|| <= ||I + J0|| +
+  // ||J(x) - J0||_F, and |col_a(x) - col_a0| is at most the largest over the four edges (a norm
+  // is convex). Reduced to the brick's maximum, then over the 26 neighbours.
+  const Eigen::Vector3i cells = (d.dims.array() - 1).max(1);
+  const Eigen::Vector3i nb = (cells.array() + out.brick_cells - 1) / out.brick_cells;
+  Grid3<float> raw(d.origin + Eigen::Vector3d::Constant(0.5 * d.spacing),
+                   d.spacing * out.brick_cells, nb, 0.0f);
+  const Eigen::Vector3i& n = d.dims;
+  for_each_cell(n, [&](int i, int j, int k) {
+    const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
+              k1 = std::min(k + 1, n.z() - 1);
+    const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
+    const int* idx[3] = {is, js, ks};
+    Eigen::Vector3d edges[3][4];
+    Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      for (int e = 0; e < 4; ++e) {
+        int lo[3], hi[3];
+        lo[a] = idx[a][0];
+        hi[a] = idx[a][1];
+        lo[b] = hi[b] = idx[b][e & 1];
+        lo[c] = hi[c] = idx[c][e >> 1];
+        // On an axis of one texel D has no slope along it.
+        edges[a][e] = (d.at(hi[0], hi[1], hi[2]).head<3>().cast<double>() -
+                       d.at(lo[0], lo[1], lo[2]).head<3>().cast<double>()) /
+                      d.spacing;
+        m.col(a) += 0.25 * edges[a][e];
+      }
+    }
+    double deviation = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      double worst = 0.0;
+      for (int e = 0; e < 4; ++e)
+        worst = std::max(worst, (edges[a][e] - (m.col(a) - Eigen::Vector3d::Unit(a))).norm());
+      deviation += worst * worst;
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    eig.computeDirect(m.transpose() * m, Eigen::EigenvaluesOnly);
+    const double norm = std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
+    float& brick = raw.at(i / out.brick_cells, j / out.brick_cells, k / out.brick_cells);
+    brick = std::max(brick, static_cast<float>((norm + std::sqrt(deviation)) * kBoundMargin));
+  });
+  out.bricks = raw;
+  for (int k = 0; k < nb.z(); ++k)
+    for (int j = 0; j < nb.y(); ++j)
+      for (int i = 0; i < nb.x(); ++i) {
+        float m = 0.0f;
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const int x = i + di, y = j + dj, z = k + dk;
+              if (x >= 0 && y >= 0 && z >= 0 && x < nb.x() && y < nb.y() && z < nb.z())
+                m = std::max(m, raw.at(x, y, z));
+            }
+        out.bricks.at(i, j, k) = m;
+      }
+  return out;
 }
 
 }  // namespace raywarp

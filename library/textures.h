@@ -55,6 +55,35 @@ struct AlphaMap {
 // deformer moves nothing (a box cut), to find the caps a removed part leaves on the box faces.
 constexpr double kCapVoxels = 2.0;
 
+// What the `bounded` tracer (render.sampling = "bounded") needs: bounds of the Lipschitz constants
+// of the interpolated textures. It sphere traces
+//   g(p') = min( f(p), b(p), (w(p') - 1/2) / L_w ),  p = p' + D(p'),
+// where b is the signed distance to the box (> 0 inside, 1-Lipschitz) and w the validity channel
+// of D: g > 0 exactly where the linear search counts a sample as inside (valid and f > 0). Over
+// any segment inside one brick of D and its 26 neighbours,
+//   |g(x) - g(y)| <= max(L_f, 1) * L_brick * |x - y|,
+// since |grad w| / L_w <= 1 <= L_brick. A step of |g| / (max(L_f, 1) L_brick), no longer than a
+// brick side, therefore never passes a point where g > 0.
+struct StepBounds {
+  // Per brick of `brick_cells`^3 interpolation cells of D (cells lie between texel centres): a
+  // bound of ||I + J_D|| of the trilinear interpolant over the brick and its 26 neighbours.
+  // origin = D's first texel centre, spacing = brick_cells * D's spacing.
+  Grid3<float> bricks;
+  int brick_cells = 8;
+  double sdf_lipschitz = std::numeric_limits<double>::infinity();  // |grad f| of the interpolant
+  double validity_lipschitz = 0.0;  // |grad w| of the interpolant (0 where w = 1 everywhere)
+  bool empty() const { return bricks.data.empty(); }
+};
+
+// A bound of |grad| of the trilinear interpolant of a scalar grid: in a cell, d/dx is a bilinear
+// blend of the cell's four x-edge differences (/ spacing), so |grad| <= sqrt(sum over axes of the
+// largest edge difference squared). The largest over all cells. Clamp-to-edge adds no slope.
+double interpolant_lipschitz(const Grid3<float>& grid);
+// StepBounds of a box's textures, with bricks of `brick_cells` cells. Call after the textures
+// take their final values (after round_textures_to_half).
+StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
+                            int brick_cells = 8);
+
 // Everything the ray caster needs for one box.
 struct BoxTextures {
   Box box;
@@ -75,6 +104,8 @@ struct BoxTextures {
   CutMode cut_mode = CutMode::Solid;
   double shell_thickness = 0.0;  // tau, object units (thick shell)
   AlphaMap alpha;                // empty unless has_cut
+  // Lipschitz bounds for the `bounded` tracer; empty unless that sampling is used.
+  StepBounds step_bounds;
   // Textures stored as 16-bit floats on the GPU (their values already rounded to half precision
   // by round_to_half, so the CPU reference reads what the GPU does).
   bool half_precision = false;

@@ -5,7 +5,8 @@
 // Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
 // 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample
 // just beyond the box after one inside it reads the distance grid, for the caps of a box cut);
-// RAYWARP_SKIP (empty-space skipping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian).
+// RAYWARP_SKIP (empty-space skipping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian),
+// 3 (bounded: sphere tracing with Lipschitz-bounded steps; continuous deformations only).
 #include "camera.glsl"
 #include "shading.glsl"
 uniform mat4 u_object_to_box;
@@ -41,6 +42,14 @@ uniform float u_thickness;        // tau of eq. 7
 #if RAYWARP_SAMPLING == 1
 uniform float u_threshold;        // object units
 uniform float u_fine_factor;
+#endif
+#if RAYWARP_SAMPLING == 3
+uniform sampler3D u_bricks;       // per brick of D: bound of |I + J_D| there and around (NEAREST)
+uniform vec3 u_brick_origin;      // D's first texel centre
+uniform float u_brick_spacing;    // brick side, object units: also the longest step
+uniform float u_lipschitz_f;      // max(bound of |grad f|, 1)
+uniform float u_inv_lipschitz_w;  // 1 / bound of |grad w| (0: w = 1 everywhere)
+uniform float u_epsilon;          // a sample with g > -u_epsilon is the hit
 #endif
 #ifdef RAYWARP_SKIP
 uniform float u_lipschitz;        // bound of |I + J_D| outside the cut
@@ -146,6 +155,26 @@ float jacobian_step(vec3 p_def, vec3 v) {
 }
 #endif
 
+#if RAYWARP_SAMPLING == 3
+// g(p') = min(f(p), b(p), (w - 1/2) / L_w) at p = p' + D(p') (library/textures.h, StepBounds):
+// > 0 exactly where the linear search's sample is inside; b is the distance to the box faces.
+float bounded_g(vec3 p_def) {
+  vec4 dv = deformation(p_def);
+  vec3 p = p_def + dv.xyz;
+  vec3 room = u_half_extents - abs(p);
+  float g = min(distance_at(p), min(min(room.x, room.y), room.z));
+  if (u_inv_lipschitz_w > 0.0) g = min(g, (dv.w - 0.5) * u_inv_lipschitz_w);
+  return g;
+}
+
+// The Lipschitz bound of g over the brick of p_def and its neighbours.
+float bounded_lipschitz(vec3 p_def) {
+  ivec3 dims = textureSize(u_bricks, 0);
+  ivec3 b = clamp(ivec3(floor((p_def - u_brick_origin) / u_brick_spacing)), ivec3(0), dims - 1);
+  return u_lipschitz_f * texelFetch(u_bricks, b, 0).r;
+}
+#endif
+
 vec3 gradient_f(vec3 p) {
   float h = u_sdf_spacing;
   return vec3(distance_at(p + vec3(h, 0, 0)) - distance_at(p - vec3(h, 0, 0)),
@@ -200,6 +229,33 @@ void main() {
   vec3 cross_lo = (-u_half_extents - o) * inv - before, cross_hi = (u_half_extents - o) * inv - before;
 
   float t = t0, lo = t0, hi = t0;
+#if RAYWARP_SAMPLING == 3
+  // Sphere tracing of g: a step of |g| / L, at most a brick side, never passes a point where
+  // g > 0; plus the samples before the face planes, where the seam tolerance applies.
+  float g = bounded_g(o + t0 * d);
+  bool hit = g > -u_epsilon;
+  for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
+    vec3 a = mix(vec3(1e30), cross_lo, greaterThan(cross_lo, vec3(t)));
+    vec3 b = mix(vec3(1e30), cross_hi, greaterThan(cross_hi, vec3(t)));
+    vec3 m = min(a, b);
+    float next_crossing = min(min(m.x, m.y), m.z);
+    float target = min(t + min(-g / bounded_lipschitz(o + t * d), u_brick_spacing), t1);
+    bool at_face = next_crossing < target;
+    float tn = at_face ? next_crossing : target;
+    float gn = bounded_g(o + tn * d);
+    if (gn > 0.0) {  // only by rounding: refine between the two samples
+      hit = true;
+      lo = t;
+      hi = tn;
+    } else if (gn > -u_epsilon || (at_face && value(sample_at(o + tn * d, true)) > -u_seam)) {
+      hit = true;
+      lo = tn;
+      hi = tn;
+    }
+    t = tn;
+    g = gn;
+  }
+#else
   bool was_in_box = in_box(o + t0 * d);
   Sample s = sample_at(o + t0 * d, false);
 #if RAYWARP_CUT == 1
@@ -268,6 +324,7 @@ void main() {
     s = sn;
     was_in_box = in_box(pn);
   }
+#endif
   if (!hit) discard;
 #if RAYWARP_CUT != 1
   // Binary refinement between the last outside and the first inside sample.

@@ -60,7 +60,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BunnyTwist, SamplingTest,
-                         ::testing::Values("linear", "threshold", "jacobian"),
+                         ::testing::Values("linear", "threshold", "jacobian", "bounded"),
                          [](const auto& info) { return info.param; });
 
 // Eq. 4: |(I + J_D) v| is how fast the preimage moves along the ray. From the exact inverse,

@@ -1081,9 +1081,22 @@ std::vector<BadCase> bad_cases() {
        {": render.skipping = 1: must be true or false"}},
       {"RenderSamplingUnknown",
        [] { return edit([](json& j) {
-              j["render"] = {{"sampling", "bounded"}};
+              j["render"] = {{"sampling", "sphere"}};
             }); },
-       {": render.sampling = \"bounded\": must be one of linear, threshold, jacobian"}},
+       {": render.sampling = \"sphere\": must be one of linear, threshold, jacobian, bounded"}},
+      {"RenderBoundedWithCut",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = box_cut();
+           j["render"] = {{"sampling", "bounded"}};
+         });
+       },
+       {": render.sampling = \"bounded\": boxes[0].deformer.type is \"box_cut\", a cut"}},
+      {"RenderHitEpsilonZero",
+       [] { return edit([](json& j) {
+              j["render"] = {{"hit_epsilon_voxels", 0}};
+            }); },
+       {": render.hit_epsilon_voxels = 0: must be a number in (0, 1]"}},
       {"RenderThresholdZero",
        [] { return edit([](json& j) {
               j["render"] = {{"threshold_voxels", 0}};

@@ -92,7 +92,7 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
 
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
-  GLuint sdf = 0, deformation = 0, alpha = 0;
+  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0;
   size_t bytes = 0;
 };
 
@@ -121,6 +121,7 @@ struct Renderer::Impl {
       glDeleteTextures(1, &b.sdf);
       glDeleteTextures(1, &b.deformation);
       if (b.alpha) glDeleteTextures(1, &b.alpha);
+      if (b.bricks) glDeleteTextures(1, &b.bricks);
     }
     boxes.clear();
   }
@@ -158,6 +159,15 @@ struct Renderer::Impl {
     fbo_h = h;
   }
 
+  // Whether a box is sphere traced: "bounded" applies to continuous deformations (a cut's D
+  // jumps, so no Lipschitz bound holds across it); it needs the box's step bounds.
+  static bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
+    if (settings.sampling != "bounded" || b.has_cut || b.moves_nothing) return false;
+    if (b.step_bounds.empty())
+      throw Error("render.sampling = \"bounded\" needs the box's step bounds (bake_step_bounds)");
+    return true;
+  }
+
   // The ray-cast program of a box's variant: only the code its features need.
   GLuint raycast_program(const BoxTextures& b, const RenderSettings& settings) {
     std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
@@ -165,11 +175,13 @@ struct Renderer::Impl {
     if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
     defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
     if (b.moves_nothing) defines += "#define RAYWARP_MOVES_NOTHING\n";
-    if (skipping_pays(b, settings.step_voxels, settings.skipping))
+    const bool bounded = uses_bounded(b, settings);
+    if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping))
       defines += "#define RAYWARP_SKIP\n";
-    const int sampling = settings.sampling == "threshold"  ? 1
-                         : settings.sampling == "jacobian" ? 2
-                                                           : 0;
+    const int sampling = bounded                            ? 3
+                         : settings.sampling == "threshold" ? 1
+                         : settings.sampling == "jacobian"  ? 2
+                                                            : 0;
     defines += "#define RAYWARP_SAMPLING " + std::to_string(sampling) + "\n";
     auto found = raycast.find(defines);
     if (found != raycast.end()) return found->second;
@@ -288,6 +300,18 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
       gpu.alpha = upload_3d(r_format, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
       gpu.bytes += b.alpha.grid.size() * channel_bytes;
     }
+    if (!b.step_bounds.empty()) {
+      // Brick bounds for the bounded tracer: read texel by texel (texelFetch).
+      d.step_bounds = b.step_bounds;
+      d.step_bounds.bricks.data.clear();
+      d.step_bounds.bricks.data.shrink_to_fit();
+      d.step_bounds.bricks.data.push_back(0.0f);  // non-empty: the bounds are on the GPU
+      gpu.bricks =
+          upload_3d(GL_R32F, GL_RED, b.step_bounds.bricks.dims, b.step_bounds.bricks.data.data());
+      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      gpu.bytes += b.step_bounds.bricks.size() * 4;
+    }
     impl_->boxes.push_back(gpu);
   }
 }
@@ -391,6 +415,17 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.f1("u_threshold", settings.threshold_voxels * sdf.spacing);
     rc.f1("u_fine_factor", settings.fine_factor);
     rc.f1("u_seam", kSeamVoxels * sdf.spacing);
+    if (Impl::uses_bounded(b.data, settings)) {
+      const StepBounds& sb = b.data.step_bounds;
+      rc.i1("u_bricks", 3);
+      rc.vec3("u_brick_origin", sb.bricks.origin);
+      rc.f1("u_brick_spacing", sb.bricks.spacing);
+      rc.f1("u_lipschitz_f", std::max(sb.sdf_lipschitz, 1.0));
+      rc.f1("u_inv_lipschitz_w", sb.validity_lipschitz > 0.0 ? 1.0 / sb.validity_lipschitz : 0.0);
+      rc.f1("u_epsilon", settings.hit_epsilon_voxels * sdf.spacing);
+      glActiveTexture(GL_TEXTURE3);
+      glBindTexture(GL_TEXTURE_3D, b.bricks);
+    }
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);
     glActiveTexture(GL_TEXTURE1);
