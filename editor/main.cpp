@@ -1,11 +1,14 @@
 // The `raywarp` command line: a thin layer over the library.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "editor/pipeline.h"
+#include "editor/stability.h"
+#include "editor/study.h"
 #include "library/error.h"
 #include "library/gl/context.h"
 #include "library/gl/renderer.h"
@@ -21,6 +24,7 @@ struct RenderOptions {
   std::string scene, output, depth, mask, camera;
   std::string context = "auto";
   int width = 0, height = 0;
+  int frames = 1;
 };
 
 void ensure_parent(const std::string& path) {
@@ -49,6 +53,17 @@ int run_render(const RenderOptions& opt) {
   Image image = renderer.render(camera, size.x(), size.y(), scene.render, &stats);
   std::cerr << "frame: " << size.x() << "x" << size.y() << " in " << stats.milliseconds << " ms, "
             << renderer.texture_bytes() / (1 << 20) << " MiB of textures\n";
+  if (opt.frames > 1) {
+    // The first frame above also paid for llvmpipe's shader compilation; time the rest.
+    std::vector<double> ms;
+    for (int f = 0; f < opt.frames; ++f) {
+      renderer.render(camera, size.x(), size.y(), scene.render, &stats);
+      ms.push_back(stats.milliseconds);
+    }
+    std::sort(ms.begin(), ms.end());
+    std::cerr << "frames: median " << ms[ms.size() / 2] << " ms of " << opt.frames
+              << " after the first (min " << ms.front() << ", max " << ms.back() << ")\n";
+  }
   if (stats.nonfinite_pixels > 0)
     std::cerr << "warning: " << stats.nonfinite_pixels
               << " pixels had a non-finite depth and were set to background\n";
@@ -74,6 +89,57 @@ int run_render(const RenderOptions& opt) {
     write_mask_png(opt.mask, image);
     std::cerr << "wrote " << opt.mask << "\n";
   }
+  return 0;
+}
+
+struct StudyCli {
+  std::vector<std::string> scenes;
+  std::string out, context = "auto";
+  int size = 256, frames = 5, goal_size = 512;
+  bool stability = false, quick = false;
+};
+
+int run_study_cli(StudyCli opt) {
+  if (opt.stability) {
+    // The extreme cases; paths as given, so the report names them relative to the repository.
+    if (opt.scenes.empty()) {
+      const fs::path folder = "examples/extreme";
+      if (!fs::is_directory(folder))
+        throw Error("study --stability: no scenes given and no " + folder.string() +
+                    " folder here; run it from the repository root or name the scenes");
+      for (const auto& e : fs::directory_iterator(folder))
+        if (e.path().extension() == ".json") opt.scenes.push_back(e.path().generic_string());
+      std::sort(opt.scenes.begin(), opt.scenes.end());
+    }
+    const fs::path out = opt.out.empty() ? fs::path("docs/stability.md") : fs::path(opt.out);
+    if (opt.size == 256) opt.size = 128;  // the default of --stability
+    auto context = gl::create_context(opt.context);
+    std::cerr << "context: " << context->description() << "\n";
+    std::vector<fs::path> scenes(opt.scenes.begin(), opt.scenes.end());
+    auto cases = run_stability(scenes, opt.size, opt.frames, std::cerr);
+    if (!out.parent_path().empty()) fs::create_directories(out.parent_path());
+    write_stability_report(cases, out, opt.size, opt.frames, context->description());
+    std::cerr << "wrote " << out.string() << "\n";
+    for (const auto& c : cases)
+      if (c.verdict == "fails") return 1;
+    return 0;
+  }
+  if (opt.scenes.empty()) throw Error("study: give at least one scene file (or --stability)");
+  if (opt.out.empty())
+    throw Error(
+        "study: --out DIR: required (where study.csv, pareto.png and "
+        "report.md go)");
+  StudyOptions so;
+  for (const auto& s : opt.scenes) so.scenes.emplace_back(s);
+  so.out = opt.out;
+  so.size = opt.size;
+  so.frames = opt.frames;
+  so.goal_size = opt.goal_size;
+  so.quick = opt.quick;
+  auto context = gl::create_context(opt.context);
+  so.machine = context->description();
+  std::cerr << "context: " << so.machine << "\n";
+  run_study(so, std::cerr);
   return 0;
 }
 
@@ -117,6 +183,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 8192));
   render->add_option("--height", ropt.height, "Image height in pixels (overrides camera and scene)")
       ->check(CLI::Range(1, 8192));
+  render
+      ->add_option("--frames", ropt.frames,
+                   "Also time this many more frames and print their median")
+      ->check(CLI::Range(1, 10000));
   render->footer(
       "Image size: --width/--height, else the camera's width/height, else the scene's render "
       "block.\n"
@@ -128,10 +198,42 @@ int main(int argc, char** argv) {
       app.add_subcommand("info", "Print a mesh's vertex and face counts, bounds and closedness");
   info->add_option("mesh", info_path, "Mesh file (OBJ, PLY, STL, OFF, glTF, ...)")->required();
 
+  StudyCli sopt;
+  auto* study = app.add_subcommand(
+      "study",
+      "Measure error against frame time of every sampling method over a sweep of settings, "
+      "against each scene's exact ground truth; writes DIR/study.csv, DIR/pareto.png and "
+      "DIR/report.md. With --stability: the extreme cases, written to docs/stability.md");
+  study->add_option("scenes", sopt.scenes,
+                    "Scene files (default with --stability: examples/extreme/*.json)");
+  study->add_option("-o,--out", sopt.out,
+                    "Output folder (required; with --stability the markdown file, default "
+                    "docs/stability.md)");
+  study->add_option("--size", sopt.size, "Image side of the sweep (--stability: 128)")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
+  study->add_option("--frames", sopt.frames, "Timed frames per run, median taken")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  study->add_option("--goal-size", sopt.goal_size, "Image side of the speed goals")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
+  study->add_flag("--stability", sopt.stability,
+                  "Run the extreme and stiff cases instead and write the stability table");
+  study->add_flag("--quick", sopt.quick, "Two settings per method and no goals (a smoke test)");
+  study->add_option("--context", sopt.context, "OpenGL context: auto, egl or osmesa")
+      ->check(CLI::IsMember({"auto", "egl", "osmesa"}))
+      ->capture_default_str();
+  study->footer(
+      "Example: raywarp study examples/bunny_twist.json examples/bunny_cut_solid.json --out "
+      "out/study\n"
+      "         raywarp study --stability   (from the repository root)");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*render) return run_render(ropt);
     if (*info) return run_info(info_path);
+    if (*study) return run_study_cli(sopt);
   } catch (const Error& e) {
     std::cerr << "raywarp: error: " << e.what() << "\n";
     return 2;
