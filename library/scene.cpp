@@ -596,6 +596,7 @@ RenderSettings read_render(const SceneReader& r, const json& j) {
   if (j.contains("sampling"))
     s.sampling =
         r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian", "bounded"});
+  if (s.sampling != "threshold" && !j.contains("step_voxels")) s.step_voxels = kFineStepVoxels;
   if (j.contains("threshold_voxels"))
     s.threshold_voxels =
         r.number(j["threshold_voxels"], "render.threshold_voxels", {0.0, 64.0, true, false});

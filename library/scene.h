@@ -55,12 +55,17 @@ struct BoxSpec {
   int alpha_resolution = 64;   // texels of A along the longest side, [4, 1024]
 };
 
+// The step of linear and jacobian sampling when the scene gives none, voxels.
+constexpr double kFineStepVoxels = 0.5;
+
 struct RenderSettings {
-  int width = 512, height = 512;        // [1, 8192]
-  double step_voxels = 0.5;             // linear-search step in voxels of the distance grid, (0, 8]
-  int max_steps = 1024;                 // bound on the linear search, [1, 100000]
-  int refine_steps = 8;                 // binary refinement steps, [0, 64]
-  Eigen::Vector3d background{1, 1, 1};  // linear RGB in [0, 1]
+  int width = 512, height = 512;  // [1, 8192]
+  // Step in voxels of the distance grid, (0, 8]: threshold's coarse step; linear's and jacobian's
+  // step (kFineStepVoxels when the scene picks those methods and gives no step).
+  double step_voxels = 4.0;
+  int max_steps = 1024;                            // bound on the linear search, [1, 100000]
+  int refine_steps = 8;                            // binary refinement steps, [0, 64]
+  Eigen::Vector3d background{1, 1, 1};             // linear RGB in [0, 1]
   Eigen::Vector3d colour{0.8, 0.62, 0.45};         // surface albedo, linear RGB in [0, 1]
   Eigen::Vector3d cut_colour{0.75, 0.18, 0.16};    // solid cut faces, linear RGB
   Eigen::Vector3d inside_colour{0.3, 0.42, 0.62};  // the inside of a shell (back faces)
@@ -69,13 +74,16 @@ struct RenderSettings {
   // shrunk by fine_factor where |value| < threshold_voxels voxels), "jacobian" (eq. 4:
   // step / |(I + J_D) v|, clamped to [step / 16, 4 step]), "bounded" (sphere tracing of
   // g = f(p' + D(p')) with steps bounded by Lipschitz constants per brick of D).
-  std::string sampling = "linear";
+  // The default, threshold at 4 voxels with 1/8 of that (0.5 voxel) within 2 voxels of the
+  // surface, matched linear at 0.5 voxel in every error figure of `raywarp study` on the shipped
+  // scenes at 2.3-3.9x less frame time (docs/study/report.md).
+  std::string sampling = "threshold";
   double threshold_voxels = 2.0;  // (0, 64]
-  double fine_factor = 0.25;      // (0, 1]
+  double fine_factor = 0.125;     // (0, 1]
   // "bounded": sphere tracing with Lipschitz-bounded steps (see StepBounds); a sample where
   // g > -hit_epsilon_voxels voxels counts as the hit. Continuous deformations only.
   double hit_epsilon_voxels = 0.02;  // (0, 1]
-  int texture_bits = 32;          // 32 or 16: float precision of the textures on the GPU
+  int texture_bits = 32;             // 32 or 16: float precision of the textures on the GPU
 };
 
 // The textures of all boxes of a scene together must fit in this many bytes; load_scene checks

@@ -164,6 +164,7 @@ TEST(Bounded, MissesNoHitOfADenseMarchOnThinShells) {
   bounded.sampling = "bounded";
   bounded.max_steps = 20000;
   RenderSettings linear;
+  linear.sampling = "linear";
   linear.step_voxels = 1.0;
   long rays = 0, dense_hits = 0, bounded_misses = 0, bounded_late = 0, linear_misses = 0,
        near_misses = 0;

@@ -233,6 +233,8 @@ TEST(ReferenceRayCast, StartInsideHitsAtStartAndStepsAreBounded) {
   // would jump up to the narrow band's width).
   settings.max_steps = 2;
   settings.skipping = false;
+  settings.sampling = "linear";
+  settings.step_voxels = kFineStepVoxels;
   const Vec3 o(-3.0, 0.0, -0.05);
   auto [t0, t1] = slab(tex, o, Vec3(1, 0, 0));
   EXPECT_FALSE(ray_cast_box(tex, o, Vec3(1, 0, 0), t0, t1, settings));

@@ -28,6 +28,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
   const std::string root = RAYWARP_SOURCE_DIR;
   Scene scene = load_scene(root + "/examples/bunny_twist.json");
   scene.render.sampling = GetParam();
+  if (GetParam() != "threshold") scene.render.step_voxels = kFineStepVoxels;
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
   const PreparedBox& box = prepared.boxes[0];

@@ -84,6 +84,20 @@ void expect_near(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double tol 
       << "got " << a.transpose() << ", expected " << b.transpose();
 }
 
+// The default step is threshold's coarse one; a scene that picks linear or jacobian without a
+// step gets the fine step, and a given step is kept.
+TEST(Scene, StepDefaultsFollowTheSamplingMethod) {
+  json j = base_scene();
+  j["render"] = {{"sampling", "linear"}};
+  EXPECT_EQ(load_json("linear.json", j).render.step_voxels, kFineStepVoxels);
+  j["render"] = {{"sampling", "jacobian"}};
+  EXPECT_EQ(load_json("jacobian.json", j).render.step_voxels, kFineStepVoxels);
+  j["render"] = {{"sampling", "linear"}, {"step_voxels", 2}};
+  EXPECT_EQ(load_json("linear2.json", j).render.step_voxels, 2.0);
+  j["render"] = {{"sampling", "threshold"}};
+  EXPECT_EQ(load_json("threshold.json", j).render.step_voxels, 4.0);
+}
+
 TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   Scene s = load_json("minmax.json", base_scene());
   EXPECT_EQ(s.file, SceneFolder::path / "minmax.json");
@@ -109,7 +123,9 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_FALSE(s.camera.has_value());
   EXPECT_EQ(s.render.width, 512);
   EXPECT_EQ(s.render.height, 512);
-  EXPECT_EQ(s.render.step_voxels, 0.5);
+  EXPECT_EQ(s.render.sampling, "threshold");
+  EXPECT_EQ(s.render.step_voxels, 4.0);
+  EXPECT_EQ(s.render.fine_factor, 0.125);
   EXPECT_EQ(s.render.max_steps, 1024);
   EXPECT_EQ(s.render.refine_steps, 8);
   expect_near(s.render.background, {1, 1, 1});
