@@ -37,8 +37,12 @@ struct StudyRun {
   double iou = 0, mean_depth_error = 0, max_depth_error = 0;
   double fraction_over = 0;    // of pixels covered in both: depth error > 1 % of the diagonal
   double fraction_missed = 0;  // of the ground truth's covered pixels: not covered by the run
-  size_t memory_bytes = 0;     // textures (image space) or vertex and index buffers (object space)
-  long triangles = 0;          // object-space: triangles rasterised
+  // Of the pixels the bounded tracer covers (epsilon 0.02, the scene's textures): not covered
+  // by the run. Thin features that a step passes over show here. NaN where bounded does not
+  // apply (cuts).
+  double fraction_missed_vs_bounded = 0;
+  size_t memory_bytes = 0;  // textures (image space) or vertex and index buffers (object space)
+  long triangles = 0;       // object-space: triangles rasterised
 };
 
 // Runs the study (a current OpenGL context is needed), writes the three files, and returns the
