@@ -75,8 +75,8 @@ struct RenderSettings {
   // step / |(I + J_D) v|, clamped to [step / 16, 4 step]), "bounded" (sphere tracing of
   // g = f(p' + D(p')) with steps bounded by Lipschitz constants per brick of D).
   // The default, threshold at 4 voxels with 1/8 of that (0.5 voxel) within 2 voxels of the
-  // surface, matched linear at 0.5 voxel in every error figure of `raywarp study` on the shipped
-  // scenes at 2.3-3.9x less frame time (docs/study/report.md).
+  // surface, or a neighbour of it, matched linear at 0.5 voxel in every error figure of
+  // `raywarp study` on the shipped scenes at 1.3-3.9x less frame time (docs/study/report.md).
   std::string sampling = "threshold";
   double threshold_voxels = 2.0;  // (0, 64]
   double fine_factor = 0.125;     // (0, 1]
