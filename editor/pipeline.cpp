@@ -73,6 +73,28 @@ std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_ind
               "\": must be one of twist, bend, peel, incision, box_cut");
 }
 
+OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(static_cast<size_t>(mesh.F.rows()) * 3);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int u = mesh.F(f, c), w = mesh.F(f, (c + 1) % 3);
+      if (u != w) edges.emplace_back(std::min(u, w), std::max(u, w));
+    }
+  std::sort(edges.begin(), edges.end());
+  OpenEdges out;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    const Eigen::Vector3d mid =
+        0.5 * (mesh.V.row(edges[i].first) + mesh.V.row(edges[i].second)).transpose();
+    if ((j - i == 1 || j - i >= 3) && box.contains(mid))
+      (j - i == 1 ? out.boundary : out.nonmanifold)++;
+    i = j;
+  }
+  return out;
+}
+
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
   static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   auto identity = deformer.identity_faces();
@@ -210,6 +232,13 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
       box.warnings.push_back(
           "the mesh crosses box face " + face +
           ", where the deformation is not the identity: the surface tears there");
+    if (const OpenEdges open = open_edges_in_box(out.mesh, spec.box); open.any())
+      box.warnings.push_back(
+          "the mesh is open or non-manifold inside the box (" + std::to_string(open.boundary) +
+          " boundary and " + std::to_string(open.nonmanifold) +
+          " non-manifold edges): its inside there is taken from the generalised winding "
+          "number, and a sheet or fin with no inside of its own is not in the distance grid, so "
+          "it does not show in the deformed part");
     double ray_length = tex.region.diagonal().norm();
     double reach = scene.render.max_steps * scene.render.step_voxels * sdf.grid.spacing;
     if (reach < ray_length)

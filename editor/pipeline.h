@@ -35,6 +35,14 @@ std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_ind
 // Loads the mesh and bakes every box, logging stages, times and warnings to `log`.
 PreparedScene prepare_scene(const Scene& scene, std::ostream& log);
 
+// Edges of the mesh used by one triangle (boundary) or by three or more (non-manifold) whose
+// midpoints lie in the box: there the mesh has no well-defined inside.
+struct OpenEdges {
+  long boundary = 0, nonmanifold = 0;
+  bool any() const { return boundary + nonmanifold > 0; }
+};
+OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box);
+
 // Faces of the box, as "-x", "+y", ..., that the mesh crosses where F is not the identity.
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer);
 

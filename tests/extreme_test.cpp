@@ -67,9 +67,35 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
       EXPECT_LE(c.fraction_over, 0.02) << GetParam();
     }
   }
+  if (GetParam() == "degenerate_triangles")  // its fin and repeated-vertex faces
+    EXPECT_NE(warnings.find("open or non-manifold inside the box (2 boundary and 2 non-manifold"),
+              std::string::npos)
+        << warnings;
   std::printf("[figures] %s: %s; frame %.1f ms at %d^2; warnings: %s\n", GetParam().c_str(),
               error.c_str(), stats.milliseconds, kSize,
               warnings.empty() ? "none" : warnings.c_str());
+}
+
+// A lone triangle has three boundary edges; a closed tetrahedron none; edges outside the box
+// do not count.
+TEST(OpenEdges, CountsBoundaryAndNonManifoldEdgesInTheBox) {
+  Mesh tet;
+  tet.V.resize(5, 3);
+  tet.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0.3, 0.3, -1;
+  tet.F.resize(4, 3);
+  tet.F << 0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3;
+  Box box;
+  box.centre = Eigen::Vector3d(0.5, 0.5, 0.5);
+  box.half_extents = Eigen::Vector3d::Constant(0.6);
+  EXPECT_FALSE(open_edges_in_box(tet, box).any());
+  Mesh fin = tet;  // a fourth face on edge 0-1, and its two new edges
+  fin.F.conservativeResize(5, 3);
+  fin.F.row(4) << 0, 1, 4;
+  const OpenEdges open = open_edges_in_box(fin, box);
+  EXPECT_EQ(open.nonmanifold, 1);
+  EXPECT_EQ(open.boundary, 0);  // edges 1-4 and 4-0 have midpoints below the box
+  box.half_extents = Eigen::Vector3d::Constant(2.0);
+  EXPECT_EQ(open_edges_in_box(fin, box).boundary, 2);
 }
 
 INSTANTIATE_TEST_SUITE_P(Extreme, ExtremeTest,
