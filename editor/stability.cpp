@@ -260,7 +260,8 @@ void write_stability_report(const std::vector<StabilityCase>& cases,
                             const std::string& machine) {
   std::ostringstream md;
   md << "# Stability on the extreme cases\n\n"
-     << "Every scene of the study was loaded, baked and rendered at " << size << " x " << size
+     << "Written by `raywarp study --stability` (run from the repository root). "
+     << "Every scene was loaded, baked and rendered at " << size << " x " << size
      << " pixels on " << (machine.empty() ? "an unnamed OpenGL context" : machine) << " ("
      << std::thread::hardware_concurrency() << " hardware threads).\n\n"
      << "- **Finite**: every texel of the distance grid, the deformation texture and the alpha "
