@@ -21,6 +21,7 @@
 
 #include "deformers/bend.h"
 #include "deformers/twist.h"
+#include "editor/format.h"
 #include "editor/pipeline.h"
 #include "library/gl/context.h"
 #include "library/gl/renderer.h"
@@ -30,12 +31,6 @@
 using namespace raywarp;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 template <class F>
 double time_ms(F&& f) {

@@ -11,6 +11,7 @@
 #include "deformers/incision.h"
 #include "deformers/peel.h"
 #include "deformers/twist.h"
+#include "editor/format.h"
 #include "library/error.h"
 #include "library/implicit.h"
 
@@ -20,12 +21,6 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-std::string fmt(const char* format, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, x);
-  return buf;
 }
 
 std::string dims_string(const Eigen::Vector3i& d) {

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <thread>
 
+#include "editor/format.h"
 #include "editor/pipeline.h"
 #include "library/error.h"
 #include "library/gl/renderer.h"
@@ -21,12 +22,6 @@
 namespace raywarp {
 
 namespace {
-
-std::string fmt(const char* format, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, x);
-  return buf;
-}
 
 std::string trim(const std::string& s) {
   const auto first = s.find_first_not_of(" \t\r");
@@ -67,13 +62,6 @@ std::map<std::string, std::string> read_stresses(const std::filesystem::path& re
     }
   }
   return out;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 bool textures_finite(const PreparedScene& prepared) {
@@ -261,8 +249,8 @@ void write_stability_report(const std::vector<StabilityCase>& cases,
   std::ostringstream md;
   md << "# Stability on the extreme cases\n\n"
      << "Written by `raywarp study --stability` (run from the repository root). "
-     << "Every scene was loaded, baked and rendered at " << size << " x " << size
-     << " pixels on " << (machine.empty() ? "an unnamed OpenGL context" : machine) << " ("
+     << "Every scene was loaded, baked and rendered at " << size << " x " << size << " pixels on "
+     << (machine.empty() ? "an unnamed OpenGL context" : machine) << " ("
      << std::thread::hardware_concurrency() << " hardware threads).\n\n"
      << "- **Finite**: every texel of the distance grid, the deformation texture and the alpha "
         "map, and every pixel of the colour and depth images, holds no NaN or infinity (empty "

@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "deformers/box_cut.h"
+#include "editor/format.h"
 #include "editor/pipeline.h"
 #include "library/error.h"
 #include "library/gl/renderer.h"
@@ -23,19 +24,6 @@
 namespace raywarp {
 
 namespace {
-
-std::string fmt(const char* format, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, x);
-  return buf;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // One point of the sweep.
 struct Point {
