@@ -97,6 +97,7 @@ struct StudyCli {
   std::string out, context = "auto";
   int size = 256, frames = 5, goal_size = 512;
   bool stability = false, quick = false;
+  bool size_given = false;
 };
 
 int run_study_cli(StudyCli opt) {
@@ -112,7 +113,7 @@ int run_study_cli(StudyCli opt) {
       std::sort(opt.scenes.begin(), opt.scenes.end());
     }
     const fs::path out = opt.out.empty() ? fs::path("docs/stability.md") : fs::path(opt.out);
-    if (opt.size == 256) opt.size = 128;  // the default of --stability
+    if (!opt.size_given) opt.size = 128;  // the default of --stability
     auto context = gl::create_context(opt.context);
     std::cerr << "context: " << context->description() << "\n";
     std::vector<fs::path> scenes(opt.scenes.begin(), opt.scenes.end());
@@ -233,7 +234,10 @@ int main(int argc, char** argv) {
   try {
     if (*render) return run_render(ropt);
     if (*info) return run_info(info_path);
-    if (*study) return run_study_cli(sopt);
+    if (*study) {
+      sopt.size_given = study->count("--size") > 0;
+      return run_study_cli(sopt);
+    }
   } catch (const Error& e) {
     std::cerr << "raywarp: error: " << e.what() << "\n";
     return 2;

@@ -249,11 +249,13 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log) {
     if (scene.render.sampling == "bounded" && !tex.moves_nothing) {
       tex.step_bounds = bake_step_bounds(tex.sdf, tex.deformation);
       const StepBounds& sb = tex.step_bounds;
-      float lo = *std::min_element(sb.bricks.data.begin(), sb.bricks.data.end());
-      float hi = *std::max_element(sb.bricks.data.begin(), sb.bricks.data.end());
-      log << tag << "bounded tracing: |grad f| <= " << fmt("%.3g", sb.sdf_lipschitz)
-          << ", |I + J_D| per brick of " << sb.brick_cells << "^3 cells in [" << fmt("%.3g", lo)
-          << ", " << fmt("%.3g", hi) << "] (" << dims_string(sb.bricks.dims) << " bricks)\n";
+      auto range = [](const Grid3<float>& g) {
+        const auto [lo, hi] = std::minmax_element(g.data.begin(), g.data.end());
+        return "[" + fmt("%.3g", *lo) + ", " + fmt("%.3g", *hi) + "]";
+      };
+      log << tag << "bounded tracing: per brick of " << sb.brick_cells
+          << "^3 cells and its neighbours, |grad f| in " << range(sb.sdf_bricks) << " (whole grid "
+          << fmt("%.3g", sb.sdf_lipschitz) << "), |I + J_D| in " << range(sb.bricks) << "\n";
     }
     out.boxes.push_back(std::move(box));
   }

@@ -293,27 +293,15 @@ Vec3 displacement(const BoxTextures& box, const Vec3& p_def) {
 }
 
 // The `bounded` tracer's function (see StepBounds): g = min(f(p), b(p), (w - 1/2) / L_w) at
-// p = p' + D(p'), > 0 exactly where a sample is inside; `face` gets b(p), `f` gets f(p).
-double bounded_g(const BoxTextures& box, const Vec3& p_def, double* face, double* f) {
+// p = p' + D(p'), > 0 exactly where a sample is inside; `p` gets the preimage.
+double bounded_g(const BoxTextures& box, const Vec3& p_def, Vec3* p) {
   const Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
-  const Vec3 p = p_def + dv.head<3>();
-  *f = box.sdf.grid.sample(p).value();
-  *face = (box.box.half_extents - p.cwiseAbs()).minCoeff();
-  double g = std::min(*f, *face);
+  *p = p_def + dv.head<3>();
+  double g =
+      std::min(box.sdf.grid.sample(*p).value(), (box.box.half_extents - p->cwiseAbs()).minCoeff());
   if (box.step_bounds.validity_lipschitz > 0.0)
     g = std::min(g, (dv.w() - 0.5) / box.step_bounds.validity_lipschitz);
   return g;
-}
-
-// The bound of g's Lipschitz constant over the brick of p_def and its neighbours.
-double bounded_lipschitz(const BoxTextures& box, const Vec3& p_def) {
-  const StepBounds& sb = box.step_bounds;
-  Eigen::Vector3i b;
-  for (int a = 0; a < 3; ++a)
-    b[a] = std::clamp(
-        static_cast<int>(std::floor((p_def[a] - sb.bricks.origin[a]) / sb.bricks.spacing)), 0,
-        sb.bricks.dims[a] - 1);
-  return std::max(sb.sdf_lipschitz, 1.0) * sb.bricks.at(b.x(), b.y(), b.z());
 }
 
 // Sphere tracing of g over [t0, t1] (the shader's RAYWARP_SAMPLING 3), with the linear search's
@@ -330,9 +318,9 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
         "(bake_step_bounds)");
   const double h = box.sdf.grid.spacing;
   const double epsilon = settings.hit_epsilon_voxels * h, seam = kSeamVoxels * h;
-  const double longest = box.step_bounds.bricks.spacing;
-  double t = t0, face = 0.0, f = 0.0;
-  double g = bounded_g(box, o + t * d, &face, &f);
+  double t = t0;
+  Vec3 p;
+  double g = bounded_g(box, o + t * d, &p);
   if (g > -epsilon) {
     *lo = *hi = t;
     return true;
@@ -341,11 +329,12 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
     double next_crossing = kInfinity;
     for (double tc : crossings)
       next_crossing = tc > t ? std::min(next_crossing, tc) : next_crossing;
-    const double target =
-        std::min(t + std::min(-g / bounded_lipschitz(box, o + t * d), longest), t1);
+    const StepBound bound = step_bound_at(box.step_bounds, o + t * d, p);
+    const double target = std::min(t + std::min(-g / bound.lipschitz, bound.longest), t1);
     const bool at_face = next_crossing < target;
     const double tn = at_face ? next_crossing : target;
-    const double gn = bounded_g(box, o + tn * d, &face, &f);
+    Vec3 pn;
+    const double gn = bounded_g(box, o + tn * d, &pn);
     if (gn > 0.0) {  // only by rounding: refine between the two samples
       *lo = t;
       *hi = tn;
@@ -357,6 +346,7 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
     }
     t = tn;
     g = gn;
+    p = pn;
   }
   return false;
 }

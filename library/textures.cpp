@@ -71,45 +71,87 @@ void for_each_cell(const Eigen::Vector3i& dims, F&& cell) {
       for (int i = 0; i < cells.x(); ++i) cell(i, j, k);
 }
 
+// |grad| bound of a scalar grid's interpolant over cell (i, j, k) (see interpolant_lipschitz).
+double cell_slope(const Grid3<float>& grid, int i, int j, int k) {
+  const Eigen::Vector3i& n = grid.dims;
+  const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
+            k1 = std::min(k + 1, n.z() - 1);
+  const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
+  const int* idx[3] = {is, js, ks};
+  double sum = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    double edge = 0.0;
+    for (int e = 0; e < 4; ++e) {
+      int lo[3], hi[3];
+      lo[a] = idx[a][0];
+      hi[a] = idx[a][1];
+      lo[b] = hi[b] = idx[b][e & 1];
+      lo[c] = hi[c] = idx[c][e >> 1];
+      edge = std::max(edge, std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
+                                     double(grid.at(lo[0], lo[1], lo[2]))));
+    }
+    sum += edge * edge;
+  }
+  return std::sqrt(sum) / grid.spacing * kBoundMargin;
+}
+
+// Bricks of `cells_per_brick`^3 cells over a grid of `dims` texels: the grid of their bounds
+// (origin at the first texel centre), each the largest `per_cell` of its cells.
+template <class Grid, class F>
+Grid3<float> brick_maxima(const Grid& grid, int cells_per_brick, F&& per_cell) {
+  const Eigen::Vector3i cells = (grid.dims.array() - 1).max(1);
+  const Eigen::Vector3i nb = (cells.array() + cells_per_brick - 1) / cells_per_brick;
+  Grid3<float> raw(grid.origin + Eigen::Vector3d::Constant(0.5 * grid.spacing),
+                   grid.spacing * cells_per_brick, nb, 0.0f);
+  for_each_cell(grid.dims, [&](int i, int j, int k) {
+    float& brick = raw.at(i / cells_per_brick, j / cells_per_brick, k / cells_per_brick);
+    brick = std::max(brick, static_cast<float>(per_cell(i, j, k)));
+  });
+  return raw;
+}
+
+// Each brick's bound raised to the largest over it and its 26 neighbours, and to at least 1.
+Grid3<float> dilate_at_least_one(const Grid3<float>& raw) {
+  Grid3<float> out = raw;
+  const Eigen::Vector3i& nb = raw.dims;
+  for (int k = 0; k < nb.z(); ++k)
+    for (int j = 0; j < nb.y(); ++j)
+      for (int i = 0; i < nb.x(); ++i) {
+        float m = 1.0f;
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const int x = i + di, y = j + dj, z = k + dk;
+              if (x >= 0 && y >= 0 && z >= 0 && x < nb.x() && y < nb.y() && z < nb.z())
+                m = std::max(m, raw.at(x, y, z));
+            }
+        out.at(i, j, k) = m;
+      }
+  return out;
+}
+
 }  // namespace
 
 double interpolant_lipschitz(const Grid3<float>& grid) {
   if (grid.data.empty()) return 0.0;
   double worst = 0.0;
-  const Eigen::Vector3i& n = grid.dims;
-  for_each_cell(n, [&](int i, int j, int k) {
-    const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
-              k1 = std::min(k + 1, n.z() - 1);
-    const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
-    double sum = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      double edge = 0.0;
-      for (int u = 0; u < 2; ++u)
-        for (int v = 0; v < 2; ++v) {
-          int lo[3], hi[3];
-          const int b = (a + 1) % 3, c = (a + 2) % 3;
-          const int* idx[3] = {is, js, ks};
-          lo[a] = idx[a][0];
-          hi[a] = idx[a][1];
-          lo[b] = hi[b] = idx[b][u];
-          lo[c] = hi[c] = idx[c][v];
-          edge = std::max(edge, std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
-                                         double(grid.at(lo[0], lo[1], lo[2]))));
-        }
-      sum += edge * edge;
-    }
-    worst = std::max(worst, std::sqrt(sum));
-  });
-  return worst / grid.spacing * kBoundMargin;
+  for_each_cell(grid.dims,
+                [&](int i, int j, int k) { worst = std::max(worst, cell_slope(grid, i, j, k)); });
+  return worst;
 }
 
 StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
                             int brick_cells) {
   StepBounds out;
   out.brick_cells = std::max(1, brick_cells);
-  out.sdf_lipschitz = interpolant_lipschitz(sdf.grid);
   const Grid3<Eigen::Vector4f>& d = deformation.grid;
-  if (d.data.empty()) return out;
+  if (d.data.empty() || sdf.grid.data.empty()) return out;
+  const Grid3<float> f_raw = brick_maxima(sdf.grid, out.brick_cells, [&](int i, int j, int k) {
+    return cell_slope(sdf.grid, i, j, k);
+  });
+  out.sdf_lipschitz = *std::max_element(f_raw.data.begin(), f_raw.data.end());
+  out.sdf_bricks = dilate_at_least_one(f_raw);
   Grid3<float> validity(d.origin, d.spacing, d.dims);
   for (size_t i = 0; i < d.data.size(); ++i) validity.data[i] = d.data[i].w();
   out.validity_lipschitz = interpolant_lipschitz(validity);
@@ -117,13 +159,9 @@ StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& d
   // Per cell: in a cell, column a of J_D is a bilinear blend of the cell's four a-edge
   // differences (/ spacing). With J0 their mean per column, ||I + J(x)|| <= ||I + J0|| +
   // ||J(x) - J0||_F, and |col_a(x) - col_a0| is at most the largest over the four edges (a norm
-  // is convex). Reduced to the brick's maximum, then over the 26 neighbours.
-  const Eigen::Vector3i cells = (d.dims.array() - 1).max(1);
-  const Eigen::Vector3i nb = (cells.array() + out.brick_cells - 1) / out.brick_cells;
-  Grid3<float> raw(d.origin + Eigen::Vector3d::Constant(0.5 * d.spacing),
-                   d.spacing * out.brick_cells, nb, 0.0f);
+  // is convex).
   const Eigen::Vector3i& n = d.dims;
-  for_each_cell(n, [&](int i, int j, int k) {
+  auto cell_norm = [&](int i, int j, int k) {
     const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
               k1 = std::min(k + 1, n.z() - 1);
     const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
@@ -146,32 +184,44 @@ StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& d
       }
     }
     double deviation = 0.0;
+    const int ijk[3] = {i, j, k};
     for (int a = 0; a < 3; ++a) {
+      const Eigen::Vector3d mean = m.col(a) - Eigen::Vector3d::Unit(a);
       double worst = 0.0;
-      for (int e = 0; e < 4; ++e)
-        worst = std::max(worst, (edges[a][e] - (m.col(a) - Eigen::Vector3d::Unit(a))).norm());
+      for (int e = 0; e < 4; ++e) worst = std::max(worst, (edges[a][e] - mean).norm());
+      // Beyond the outer texel centres clamp-to-edge holds D constant along a: there column a of
+      // J_D is 0, which need not lie between the edges, so a boundary cell's bound covers it.
+      if (ijk[a] == 0 || ijk[a] >= n[a] - 2) worst = std::max(worst, mean.norm());
       deviation += worst * worst;
     }
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
     eig.computeDirect(m.transpose() * m, Eigen::EigenvaluesOnly);
     const double norm = std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
-    float& brick = raw.at(i / out.brick_cells, j / out.brick_cells, k / out.brick_cells);
-    brick = std::max(brick, static_cast<float>((norm + std::sqrt(deviation)) * kBoundMargin));
-  });
-  out.bricks = raw;
-  for (int k = 0; k < nb.z(); ++k)
-    for (int j = 0; j < nb.y(); ++j)
-      for (int i = 0; i < nb.x(); ++i) {
-        float m = 0.0f;
-        for (int dk = -1; dk <= 1; ++dk)
-          for (int dj = -1; dj <= 1; ++dj)
-            for (int di = -1; di <= 1; ++di) {
-              const int x = i + di, y = j + dj, z = k + dk;
-              if (x >= 0 && y >= 0 && z >= 0 && x < nb.x() && y < nb.y() && z < nb.z())
-                m = std::max(m, raw.at(x, y, z));
-            }
-        out.bricks.at(i, j, k) = m;
-      }
+    return (norm + std::sqrt(deviation)) * kBoundMargin;
+  };
+  out.bricks = dilate_at_least_one(brick_maxima(d, out.brick_cells, cell_norm));
+  return out;
+}
+
+namespace {
+
+float brick_at(const Grid3<float>& bricks, const Eigen::Vector3d& p) {
+  Eigen::Vector3i b;
+  for (int a = 0; a < 3; ++a)
+    b[a] = std::clamp(static_cast<int>(std::floor(
+                          std::clamp((p[a] - bricks.origin[a]) / bricks.spacing, -1.0, 1e9))),
+                      0, bricks.dims[a] - 1);
+  return bricks.at(b.x(), b.y(), b.z());
+}
+
+}  // namespace
+
+StepBound step_bound_at(const StepBounds& bounds, const Eigen::Vector3d& p_def,
+                        const Eigen::Vector3d& p) {
+  const double l_d = brick_at(bounds.bricks, p_def);
+  StepBound out;
+  out.lipschitz = brick_at(bounds.sdf_bricks, p) * l_d;
+  out.longest = std::min(bounds.bricks.spacing, bounds.sdf_bricks.spacing / l_d);
   return out;
 }
 

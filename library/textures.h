@@ -56,23 +56,28 @@ struct AlphaMap {
 constexpr double kCapVoxels = 2.0;
 
 // What the `bounded` tracer (render.sampling = "bounded") needs: bounds of the Lipschitz constants
-// of the interpolated textures. It sphere traces
+// of the interpolated textures, per brick. It sphere traces
 //   g(p') = min( f(p), b(p), (w(p') - 1/2) / L_w ),  p = p' + D(p'),
 // where b is the signed distance to the box (> 0 inside, 1-Lipschitz) and w the validity channel
-// of D: g > 0 exactly where the linear search counts a sample as inside (valid and f > 0). Over
-// any segment inside one brick of D and its 26 neighbours,
-//   |g(x) - g(y)| <= max(L_f, 1) * L_brick * |x - y|,
-// since |grad w| / L_w <= 1 <= L_brick. A step of |g| / (max(L_f, 1) L_brick), no longer than a
-// brick side, therefore never passes a point where g > 0.
+// of D: g > 0 exactly where the linear search counts a sample as inside (valid and f > 0).
+// From p' (preimage p), along any segment of length s <= min(B_D, B_f / L_D(p')),
+//   |g(x) - g(y)| <= L_f(p) * L_D(p') * |x - y|,
+// where L_D(p') >= 1 bounds ||I + J_D|| over the brick of D holding p' and its 26 neighbours (side
+// B_D), and L_f(p) >= 1 bounds |grad f| over the brick of the distance grid holding p and its
+// neighbours (side B_f): p moves at most L_D s <= B_f, so it stays in those bricks, and the
+// other two terms of g are at most L_D- and 1-Lipschitz. A step of |g| / (L_f L_D), no longer
+// than that, therefore never passes a point where g > 0.
 struct StepBounds {
   // Per brick of `brick_cells`^3 interpolation cells of D (cells lie between texel centres): a
-  // bound of ||I + J_D|| of the trilinear interpolant over the brick and its 26 neighbours.
-  // origin = D's first texel centre, spacing = brick_cells * D's spacing.
+  // bound of ||I + J_D|| of the trilinear interpolant over the brick and its 26 neighbours, at
+  // least 1. origin = D's first texel centre, spacing = brick_cells * D's spacing.
   Grid3<float> bricks;
+  // The same for |grad f| of the interpolated distance grid, at least 1 (box frame).
+  Grid3<float> sdf_bricks;
   int brick_cells = 8;
-  double sdf_lipschitz = std::numeric_limits<double>::infinity();  // |grad f| of the interpolant
+  double sdf_lipschitz = std::numeric_limits<double>::infinity();  // |grad f|, whole grid
   double validity_lipschitz = 0.0;  // |grad w| of the interpolant (0 where w = 1 everywhere)
-  bool empty() const { return bricks.data.empty(); }
+  bool empty() const { return bricks.data.empty() || sdf_bricks.data.empty(); }
 };
 
 // A bound of |grad| of the trilinear interpolant of a scalar grid: in a cell, d/dx is a bilinear
@@ -83,6 +88,13 @@ double interpolant_lipschitz(const Grid3<float>& grid);
 // take their final values (after round_textures_to_half).
 StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
                             int brick_cells = 8);
+// At p' (box frame) with preimage p = p' + D(p'): the Lipschitz bound L_f(p) L_D(p') of g, and
+// the longest step it holds for, min(B_D, B_f / L_D(p')).
+struct StepBound {
+  double lipschitz = 0.0, longest = 0.0;
+};
+StepBound step_bound_at(const StepBounds& bounds, const Eigen::Vector3d& p_def,
+                        const Eigen::Vector3d& p);
 
 // Everything the ray caster needs for one box.
 struct BoxTextures {

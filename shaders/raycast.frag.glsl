@@ -46,8 +46,10 @@ uniform float u_fine_factor;
 #if RAYWARP_SAMPLING == 3
 uniform sampler3D u_bricks;       // per brick of D: bound of |I + J_D| there and around (NEAREST)
 uniform vec3 u_brick_origin;      // D's first texel centre
-uniform float u_brick_spacing;    // brick side, object units: also the longest step
-uniform float u_lipschitz_f;      // max(bound of |grad f|, 1)
+uniform float u_brick_spacing;    // brick side, object units
+uniform sampler3D u_sdf_bricks;   // per brick of the distance grid: bound of |grad f| (NEAREST)
+uniform vec3 u_sdf_brick_origin;  // the grid's first texel centre
+uniform float u_sdf_brick_spacing;
 uniform float u_inv_lipschitz_w;  // 1 / bound of |grad w| (0: w = 1 everywhere)
 uniform float u_epsilon;          // a sample with g > -u_epsilon is the hit
 #endif
@@ -158,20 +160,27 @@ float jacobian_step(vec3 p_def, vec3 v) {
 #if RAYWARP_SAMPLING == 3
 // g(p') = min(f(p), b(p), (w - 1/2) / L_w) at p = p' + D(p') (library/textures.h, StepBounds):
 // > 0 exactly where the linear search's sample is inside; b is the distance to the box faces.
-float bounded_g(vec3 p_def) {
+float bounded_g(vec3 p_def, out vec3 p) {
   vec4 dv = deformation(p_def);
-  vec3 p = p_def + dv.xyz;
+  p = p_def + dv.xyz;
   vec3 room = u_half_extents - abs(p);
   float g = min(distance_at(p), min(min(room.x, room.y), room.z));
   if (u_inv_lipschitz_w > 0.0) g = min(g, (dv.w - 0.5) * u_inv_lipschitz_w);
   return g;
 }
 
-// The Lipschitz bound of g over the brick of p_def and its neighbours.
-float bounded_lipschitz(vec3 p_def) {
-  ivec3 dims = textureSize(u_bricks, 0);
-  ivec3 b = clamp(ivec3(floor((p_def - u_brick_origin) / u_brick_spacing)), ivec3(0), dims - 1);
-  return u_lipschitz_f * texelFetch(u_bricks, b, 0).r;
+float brick_at(sampler3D bricks, vec3 origin, float spacing, vec3 q) {
+  ivec3 b = clamp(ivec3(floor(clamp((q - origin) / spacing, -1.0, 1e9))), ivec3(0),
+                  textureSize(bricks, 0) - 1);
+  return texelFetch(bricks, b, 0).r;
+}
+
+// The longest step from p' (preimage p) that passes no point where g > 0: |g| / (L_f L_D), at
+// most min(B_D, B_f / L_D) so that the bounds' bricks hold it.
+float bounded_step(vec3 p_def, vec3 p, float g) {
+  float l_d = brick_at(u_bricks, u_brick_origin, u_brick_spacing, p_def);
+  float l_f = brick_at(u_sdf_bricks, u_sdf_brick_origin, u_sdf_brick_spacing, p);
+  return min(-g / (l_f * l_d), min(u_brick_spacing, u_sdf_brick_spacing / l_d));
 }
 #endif
 
@@ -232,17 +241,19 @@ void main() {
 #if RAYWARP_SAMPLING == 3
   // Sphere tracing of g: a step of |g| / L, at most a brick side, never passes a point where
   // g > 0; plus the samples before the face planes, where the seam tolerance applies.
-  float g = bounded_g(o + t0 * d);
+  vec3 p_pre;
+  float g = bounded_g(o + t0 * d, p_pre);
   bool hit = g > -u_epsilon;
   for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
     vec3 a = mix(vec3(1e30), cross_lo, greaterThan(cross_lo, vec3(t)));
     vec3 b = mix(vec3(1e30), cross_hi, greaterThan(cross_hi, vec3(t)));
     vec3 m = min(a, b);
     float next_crossing = min(min(m.x, m.y), m.z);
-    float target = min(t + min(-g / bounded_lipschitz(o + t * d), u_brick_spacing), t1);
+    float target = min(t + bounded_step(o + t * d, p_pre, g), t1);
     bool at_face = next_crossing < target;
     float tn = at_face ? next_crossing : target;
-    float gn = bounded_g(o + tn * d);
+    vec3 pn_pre;
+    float gn = bounded_g(o + tn * d, pn_pre);
     if (gn > 0.0) {  // only by rounding: refine between the two samples
       hit = true;
       lo = t;
@@ -254,6 +265,7 @@ void main() {
     }
     t = tn;
     g = gn;
+    p_pre = pn_pre;
   }
 #else
   bool was_in_box = in_box(o + t0 * d);

@@ -53,14 +53,9 @@ double g_of(const BoxTextures& tex, const Eigen::Vector3d& p_def) {
   return g;
 }
 
-double bound_at(const BoxTextures& tex, const Eigen::Vector3d& p_def) {
-  const StepBounds& sb = tex.step_bounds;
-  Eigen::Vector3i b;
-  for (int a = 0; a < 3; ++a)
-    b[a] = std::clamp(
-        static_cast<int>(std::floor((p_def[a] - sb.bricks.origin[a]) / sb.bricks.spacing)), 0,
-        sb.bricks.dims[a] - 1);
-  return std::max(sb.sdf_lipschitz, 1.0) * sb.bricks.at(b.x(), b.y(), b.z());
+StepBound bound_at(const BoxTextures& tex, const Eigen::Vector3d& p_def) {
+  const Eigen::Vector3d p = p_def + tex.deformation.grid.sample(p_def).head<3>();
+  return step_bound_at(tex.step_bounds, p_def, p);
 }
 
 struct Case {
@@ -113,6 +108,22 @@ std::pair<double, double> clip(const Eigen::AlignedBox3d& region, const Eigen::V
   return {t0, t1};
 }
 
+TEST(StepBounds, BricksAreAtLeastOneAndBelowTheWholeGridsBound) {
+  std::mt19937_64 rng(9);
+  Case c = random_case(rng, 1);
+  const StepBounds& sb = c.tex.step_bounds;
+  for (float v : sb.bricks.data) EXPECT_GE(v, 1.0f);
+  for (float v : sb.sdf_bricks.data) {
+    EXPECT_GE(v, 1.0f);
+    EXPECT_LE(v, std::max(sb.sdf_lipschitz, 1.0) * (1 + 1e-6));
+  }
+  EXPECT_NEAR(sb.sdf_lipschitz, interpolant_lipschitz(c.tex.sdf.grid), 1e-6);
+  // Most of a thin slab's grid is far from its surface, where f is flat at the background.
+  long flat = 0;
+  for (float v : sb.sdf_bricks.data) flat += v == 1.0f;
+  EXPECT_GT(flat, 0);
+}
+
 TEST(InterpolantLipschitz, BoundsRandomPairs) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -140,20 +151,32 @@ TEST(StepBounds, BoundTheSlopeOfGInEveryBrickNeighbourhood) {
   for (int n = 0; n < 4; ++n) {
     Case c = random_case(rng, n);
     const Grid3<Eigen::Vector4f>& d = c.tex.deformation.grid;
-    double worst_ratio = 0.0;
+    const Grid3<float>& bricks = c.tex.step_bounds.bricks;
+    double worst_g = 0.0, worst_d = 0.0;
     for (int i = 0; i < 20000; ++i) {
+      // Anywhere in D's region, its clamp-to-edge borders included.
       const Eigen::Vector3d x = d.origin + d.extent().cwiseProduct(Eigen::Vector3d(
                                                positive(rng), positive(rng), positive(rng)));
       const Eigen::Vector3d v = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
-      const double s = positive(rng) * c.tex.step_bounds.bricks.spacing;
-      const Eigen::Vector3d y = x + s * v;
+      const StepBound bound = bound_at(c.tex, x);
+      const double s = positive(rng) * bound.longest;
       if (s <= 0.0) continue;
-      const double slope = std::abs(g_of(c.tex, y) - g_of(c.tex, x)) / s;
-      worst_ratio = std::max(worst_ratio, slope / bound_at(c.tex, x));
+      const Eigen::Vector3d y = x + s * v;
+      worst_g = std::max(worst_g, std::abs(g_of(c.tex, y) - g_of(c.tex, x)) / s / bound.lipschitz);
+      // The displacement's bound on its own (f's could hide an error in it): the preimage
+      // moves at most L_D s.
+      Eigen::Vector3i b;
+      for (int a = 0; a < 3; ++a)
+        b[a] = std::clamp(static_cast<int>(std::floor((x[a] - bricks.origin[a]) / bricks.spacing)),
+                          0, bricks.dims[a] - 1);
+      const Eigen::Vector3d moved = (y + d.sample(y).head<3>()) - (x + d.sample(x).head<3>());
+      worst_d = std::max(worst_d, moved.norm() / s / bricks.at(b.x(), b.y(), b.z()));
     }
-    std::printf("[figures] %s: largest slope of g / its bound: %.3f\n", c.name.c_str(),
-                worst_ratio);
-    EXPECT_LE(worst_ratio, 1.0) << c.name;
+    std::printf(
+        "[figures] %s: largest slope of g over its bound %.3f; of the preimage over L_D %.3f\n",
+        c.name.c_str(), worst_g, worst_d);
+    EXPECT_LE(worst_g, 1.0) << c.name;
+    EXPECT_LE(worst_d, 1.0) << c.name;
   }
 }
 

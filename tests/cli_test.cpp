@@ -82,6 +82,32 @@ TEST_F(CliTest, HelpListsOptions) {
     EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
 }
 
+TEST_F(CliTest, StudyHelpAndBadInput) {
+  Result r = ::run("study --help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* opt : {"--out", "--size", "--frames", "--stability", "--quick", "--context"})
+    EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
+  std::ofstream(dir / "s.json") << scene();
+  r = ::run("study " + (dir / "s.json").string());  // no --out
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out DIR: required"), std::string::npos) << r.output;
+  r = ::run("study " + (dir / "none.json").string() + " --out " + (dir / "study").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("none.json"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "study"));
+}
+
+TEST_F(CliTest, StudyQuickWritesItsThreeFiles) {
+  std::ofstream(dir / "s.json") << scene();
+  const fs::path out = dir / "study";
+  Result r = ::run("study " + (dir / "s.json").string() + " --out " + out.string() +
+                   " --quick --size 32 --frames 1 --context osmesa");
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* f : {"study.csv", "pareto.png", "report.md"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_NE(r.output.find("[1/1] s:"), std::string::npos) << r.output;
+}
+
 TEST_F(CliTest, ValidSceneRendersAllOutputs) {
   std::ofstream(dir / "s.json") << scene();
   Result r = run((dir / "s.json").string() + " -o " + (dir / "sub/out.png").string() + " --depth " +

@@ -67,10 +67,11 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
       EXPECT_LE(c.fraction_over, 0.02) << GetParam();
     }
   }
-  if (GetParam() == "degenerate_triangles")  // its fin and repeated-vertex faces
+  if (GetParam() == "degenerate_triangles") {  // its fin and repeated-vertex faces
     EXPECT_NE(warnings.find("open or non-manifold inside the box (2 boundary and 2 non-manifold"),
               std::string::npos)
         << warnings;
+  }
   std::printf("[figures] %s: %s; frame %.1f ms at %d^2; warnings: %s\n", GetParam().c_str(),
               error.c_str(), stats.milliseconds, kSize,
               warnings.empty() ? "none" : warnings.c_str());

@@ -92,7 +92,7 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
 
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
-  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0;
+  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0, sdf_bricks = 0;
   size_t bytes = 0;
 };
 
@@ -122,6 +122,7 @@ struct Renderer::Impl {
       glDeleteTextures(1, &b.deformation);
       if (b.alpha) glDeleteTextures(1, &b.alpha);
       if (b.bricks) glDeleteTextures(1, &b.bricks);
+      if (b.sdf_bricks) glDeleteTextures(1, &b.sdf_bricks);
     }
     boxes.clear();
   }
@@ -301,16 +302,17 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
       gpu.bytes += b.alpha.grid.size() * channel_bytes;
     }
     if (!b.step_bounds.empty()) {
-      // Brick bounds for the bounded tracer: read texel by texel (texelFetch).
-      d.step_bounds = b.step_bounds;
-      d.step_bounds.bricks.data.clear();
-      d.step_bounds.bricks.data.shrink_to_fit();
-      d.step_bounds.bricks.data.push_back(0.0f);  // non-empty: the bounds are on the GPU
-      gpu.bricks =
-          upload_3d(GL_R32F, GL_RED, b.step_bounds.bricks.dims, b.step_bounds.bricks.data.data());
-      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-      glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-      gpu.bytes += b.step_bounds.bricks.size() * 4;
+      // Brick bounds for the bounded tracer, read texel by texel (texelFetch).
+      auto upload_bricks = [&](const Grid3<float>& g) {
+        const GLuint tex = upload_3d(GL_R32F, GL_RED, g.dims, g.data.data());
+        glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        gpu.bytes += g.size() * 4;
+        return tex;
+      };
+      gpu.bricks = upload_bricks(b.step_bounds.bricks);
+      gpu.sdf_bricks = upload_bricks(b.step_bounds.sdf_bricks);
+      d.step_bounds = b.step_bounds;  // the mappings; the texels stay (a few KiB)
     }
     impl_->boxes.push_back(gpu);
   }
@@ -420,11 +422,15 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
       rc.i1("u_bricks", 3);
       rc.vec3("u_brick_origin", sb.bricks.origin);
       rc.f1("u_brick_spacing", sb.bricks.spacing);
-      rc.f1("u_lipschitz_f", std::max(sb.sdf_lipschitz, 1.0));
+      rc.i1("u_sdf_bricks", 4);
+      rc.vec3("u_sdf_brick_origin", sb.sdf_bricks.origin);
+      rc.f1("u_sdf_brick_spacing", sb.sdf_bricks.spacing);
       rc.f1("u_inv_lipschitz_w", sb.validity_lipschitz > 0.0 ? 1.0 / sb.validity_lipschitz : 0.0);
       rc.f1("u_epsilon", settings.hit_epsilon_voxels * sdf.spacing);
       glActiveTexture(GL_TEXTURE3);
       glBindTexture(GL_TEXTURE_3D, b.bricks);
+      glActiveTexture(GL_TEXTURE4);
+      glBindTexture(GL_TEXTURE_3D, b.sdf_bricks);
     }
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);
