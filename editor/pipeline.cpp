@@ -68,25 +68,25 @@ std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_ind
               "\": must be one of twist, bend, peel, incision, box_cut");
 }
 
-OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box) {
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(static_cast<size_t>(mesh.F.rows()) * 3);
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const int u = mesh.F(f, c), w = mesh.F(f, (c + 1) % 3);
-      if (u != w) edges.emplace_back(std::min(u, w), std::max(u, w));
-    }
-  std::sort(edges.begin(), edges.end());
-  OpenEdges out;
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    const Eigen::Vector3d mid =
-        0.5 * (mesh.V.row(edges[i].first) + mesh.V.row(edges[i].second)).transpose();
-    if ((j - i == 1 || j - i >= 3) && box.contains(mid))
-      (j - i == 1 ? out.boundary : out.nonmanifold)++;
-    i = j;
+double frame_median(gl::Renderer& renderer, const Camera& camera, int width, int height,
+                    const RenderSettings& settings, int frames) {
+  gl::FrameStats stats;
+  renderer.render(camera, width, height, settings, &stats);
+  std::vector<double> ms;
+  for (int f = 0; f < frames; ++f) {
+    renderer.render(camera, width, height, settings, &stats);
+    ms.push_back(stats.milliseconds);
   }
+  return median(ms);
+}
+
+OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box) {
+  OpenEdges out;
+  for_each_edge_use(mesh, [&](int u, int w, int faces) {
+    if (faces != 1 && faces < 3) return;
+    if (box.contains(0.5 * (mesh.V.row(u) + mesh.V.row(w)).transpose()))
+      ++(faces == 1 ? out.boundary : out.nonmanifold);
+  });
   return out;
 }
 

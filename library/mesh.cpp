@@ -134,33 +134,40 @@ Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh) {
   return bounds;
 }
 
+void for_each_edge_use(const Mesh& mesh, const std::function<void(int, int, int)>& use) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(3 * static_cast<size_t>(mesh.F.rows()));
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int c0 = 0; c0 < 3; ++c0) {
+      const int u = mesh.F(f, c0), w = mesh.F(f, (c0 + 1) % 3);
+      if (u != w) edges.emplace_back(std::min(u, w), std::max(u, w));
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    use(edges[i].first, edges[i].second, static_cast<int>(j - i));
+    i = j;
+  }
+}
+
 MeshStats mesh_stats(const Mesh& mesh) {
   MeshStats stats;
   stats.vertices = mesh.V.rows();
   stats.faces = mesh.F.rows();
   stats.bounds = mesh_bounds(mesh);
 
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(3 * static_cast<size_t>(mesh.F.rows()));
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     const Eigen::Vector3d a = mesh.vertex(f, 0), b = mesh.vertex(f, 1), c = mesh.vertex(f, 2);
     const double longest2 =
         std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
     // Zero area up to rounding: |(b - a) x (c - a)| is computed to ~1e-16 of longest^2.
     if ((b - a).cross(c - a).norm() <= 1e-12 * longest2) ++stats.degenerate_faces;
-    for (int c0 = 0; c0 < 3; ++c0) {
-      const int u = mesh.F(f, c0), w = mesh.F(f, (c0 + 1) % 3);
-      if (u != w) edges.emplace_back(std::min(u, w), std::max(u, w));
-    }
   }
-  std::sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if (j - i == 1) ++stats.boundary_edges;
-    if (j - i >= 3) ++stats.nonmanifold_edges;
-    i = j;
-  }
+  for_each_edge_use(mesh, [&](int, int, int faces) {
+    if (faces == 1) ++stats.boundary_edges;
+    if (faces >= 3) ++stats.nonmanifold_edges;
+  });
   return stats;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <functional>
 #include <string>
 
 namespace raywarp {
@@ -26,6 +27,9 @@ struct MeshStats {
 // merged into one, identical vertices joined, polygons triangulated. Throws Error naming the file.
 Mesh load_mesh(const std::string& path);
 MeshStats mesh_stats(const Mesh& mesh);
+// Calls use(u, w, faces) once per distinct edge {u, w} (u < w) of non-collapsed triangle sides,
+// with the number of triangles using it: 1 is a boundary edge, 3 or more a non-manifold one.
+void for_each_edge_use(const Mesh& mesh, const std::function<void(int, int, int)>& use);
 Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh);  // of the vertices
 std::string describe(const MeshStats& stats);       // one line for the terminal
 // Per-vertex normals, area-weighted face normals (unit; zero for isolated vertices).
