@@ -71,28 +71,35 @@ void for_each_cell(const Eigen::Vector3i& dims, F&& cell) {
       for (int i = 0; i < cells.x(); ++i) cell(i, j, k);
 }
 
-// |grad| bound of a scalar grid's interpolant over cell (i, j, k) (see interpolant_lipschitz).
-double cell_slope(const Grid3<float>& grid, int i, int j, int k) {
-  const Eigen::Vector3i& n = grid.dims;
-  const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
-            k1 = std::min(k + 1, n.z() - 1);
-  const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
+// Calls edge(a, e, lo, hi) for the four edges e along axis a of cell (i, j, k) of a grid of
+// `dims` texels, for each axis a; lo and hi are the texel indices at the edge's ends (equal on
+// an axis of one texel).
+template <class F>
+void for_each_cell_edge(const Eigen::Vector3i& n, int i, int j, int k, F&& edge) {
+  const int is[2] = {i, std::min(i + 1, n.x() - 1)}, js[2] = {j, std::min(j + 1, n.y() - 1)},
+            ks[2] = {k, std::min(k + 1, n.z() - 1)};
   const int* idx[3] = {is, js, ks};
-  double sum = 0.0;
   for (int a = 0; a < 3; ++a) {
     const int b = (a + 1) % 3, c = (a + 2) % 3;
-    double edge = 0.0;
     for (int e = 0; e < 4; ++e) {
       int lo[3], hi[3];
       lo[a] = idx[a][0];
       hi[a] = idx[a][1];
       lo[b] = hi[b] = idx[b][e & 1];
       lo[c] = hi[c] = idx[c][e >> 1];
-      edge = std::max(edge, std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
-                                     double(grid.at(lo[0], lo[1], lo[2]))));
+      edge(a, e, lo, hi);
     }
-    sum += edge * edge;
   }
+}
+
+// |grad| bound of a scalar grid's interpolant over cell (i, j, k) (see interpolant_lipschitz).
+double cell_slope(const Grid3<float>& grid, int i, int j, int k) {
+  double largest[3] = {0.0, 0.0, 0.0};
+  for_each_cell_edge(grid.dims, i, j, k, [&](int a, int, const int* lo, const int* hi) {
+    largest[a] = std::max(largest[a], std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
+                                               double(grid.at(lo[0], lo[1], lo[2]))));
+  });
+  const double sum = largest[0] * largest[0] + largest[1] * largest[1] + largest[2] * largest[2];
   return std::sqrt(sum) / grid.spacing * kBoundMargin;
 }
 
@@ -162,27 +169,15 @@ StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& d
   // is convex).
   const Eigen::Vector3i& n = d.dims;
   auto cell_norm = [&](int i, int j, int k) {
-    const int i1 = std::min(i + 1, n.x() - 1), j1 = std::min(j + 1, n.y() - 1),
-              k1 = std::min(k + 1, n.z() - 1);
-    const int is[2] = {i, i1}, js[2] = {j, j1}, ks[2] = {k, k1};
-    const int* idx[3] = {is, js, ks};
     Eigen::Vector3d edges[3][4];
     Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
-    for (int a = 0; a < 3; ++a) {
-      const int b = (a + 1) % 3, c = (a + 2) % 3;
-      for (int e = 0; e < 4; ++e) {
-        int lo[3], hi[3];
-        lo[a] = idx[a][0];
-        hi[a] = idx[a][1];
-        lo[b] = hi[b] = idx[b][e & 1];
-        lo[c] = hi[c] = idx[c][e >> 1];
-        // On an axis of one texel D has no slope along it.
-        edges[a][e] = (d.at(hi[0], hi[1], hi[2]).head<3>().cast<double>() -
-                       d.at(lo[0], lo[1], lo[2]).head<3>().cast<double>()) /
-                      d.spacing;
-        m.col(a) += 0.25 * edges[a][e];
-      }
-    }
+    for_each_cell_edge(n, i, j, k, [&](int a, int e, const int* lo, const int* hi) {
+      // On an axis of one texel lo = hi: D has no slope along it.
+      edges[a][e] = (d.at(hi[0], hi[1], hi[2]).head<3>().cast<double>() -
+                     d.at(lo[0], lo[1], lo[2]).head<3>().cast<double>()) /
+                    d.spacing;
+      m.col(a) += 0.25 * edges[a][e];
+    });
     double deviation = 0.0;
     const int ijk[3] = {i, j, k};
     for (int a = 0; a < 3; ++a) {
