@@ -40,19 +40,6 @@ double time_ms(F&& f) {
       .count();
 }
 
-// Median frame time of `frames` frames after one warm-up frame (shader compilation).
-double frame_median(gl::Renderer& renderer, const Camera& cam, int size,
-                    const RenderSettings& settings, int frames) {
-  gl::FrameStats fs;
-  renderer.render(cam, size, size, settings, &fs);
-  std::vector<double> t;
-  for (int f = 0; f < frames; ++f) {
-    renderer.render(cam, size, size, settings, &fs);
-    t.push_back(fs.milliseconds);
-  }
-  return median(t);
-}
-
 // The paper's linear search at half a voxel: these tables compare bakes, meshes and cuts at one
 // fixed sampling (`raywarp study` compares the sampling methods).
 RenderSettings paper_linear() {
@@ -148,7 +135,7 @@ CutRow cut_row(const std::string& name, const std::string& path, int frames, int
     for (int skip = 0; skip < 2; ++skip) {
       RenderSettings settings = paper_linear();
       settings.skipping = skip == 1;
-      row.ms[kind][skip] = frame_median(renderer, cam, size, settings, frames);
+      row.ms[kind][skip] = frame_median(renderer, cam, size, size, settings, frames);
     }
     std::fprintf(stderr, "  %-28s frame %.1f ms, skipping %.1f ms\n",
                  prepared.boxes[0].deformer->describe().c_str(), row.ms[kind][0], row.ms[kind][1]);
@@ -240,7 +227,7 @@ int main(int argc, char** argv) {
       renderer.set_mesh(mesh);
       renderer.set_boxes({tex});
       const Camera cam = framing_camera(lo, hi, kind == "bend" ? 1.3 : 1.0);
-      const double frame_ms = frame_median(renderer, cam, size, paper_linear(), frames);
+      const double frame_ms = frame_median(renderer, cam, size, size, paper_linear(), frames);
       rows.push_back({name, deformer->describe(), static_cast<long>(stats.faces), spec.resolution,
                       def_res, median(sdf_t), median(def_t), frame_ms,
                       tex.sdf.grid.size() * 4.0 / (1 << 20),

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "deformers/deformer.h"
+#include "library/gl/renderer.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "library/textures.h"
@@ -42,6 +43,11 @@ struct OpenEdges {
   bool any() const { return boundary + nonmanifold > 0; }
 };
 OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box);
+
+// Median frame time (ms) of `frames` frames of width x height after one warm-up frame, which
+// pays for llvmpipe's compilation of the shader variants at their first draw.
+double frame_median(gl::Renderer& renderer, const Camera& camera, int width, int height,
+                    const RenderSettings& settings, int frames);
 
 // Faces of the box, as "-x", "+y", ..., that the mesh crosses where F is not the identity.
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer);

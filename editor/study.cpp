@@ -272,18 +272,6 @@ Measure measure(const Image& image, const Truth& truth) {
   return m;
 }
 
-double frame_median(gl::Renderer& renderer, const Camera& camera, int size,
-                    const RenderSettings& settings, int frames) {
-  gl::FrameStats stats;
-  renderer.render(camera, size, size, settings, &stats);  // warm-up: JIT, first use of textures
-  std::vector<double> ms;
-  for (int f = 0; f < frames; ++f) {
-    renderer.render(camera, size, size, settings, &stats);
-    ms.push_back(stats.milliseconds);
-  }
-  return median(ms);
-}
-
 // The object-space peer stops subdividing beyond this many triangles (about 0.3 GiB of CPU and
 // GPU buffers at the top level).
 constexpr long kMaxObjectSpaceTriangles = 4'000'000;
@@ -293,9 +281,21 @@ constexpr double kMissedTolerance = 0.0002;
 
 bool acceptable(const StudyRun& r) { return r.fraction_over <= 0.01 && r.iou >= 0.98; }
 
+// The bounded tracer's step budget in the study: near-grazing rays need many short steps.
+constexpr int kBoundedMaxSteps = 4096;
+
+// A scene box with a point's resolutions (scaled, within the scene format's minimums) and band.
+BoxSpec scaled_box(BoxSpec b, const Point& p) {
+  b.implicit.resolution = std::max(8, int(std::lround(b.implicit.resolution * p.resolution_scale)));
+  b.deformation_resolution =
+      std::max(4, int(std::lround(b.deformation_resolution * p.resolution_scale)));
+  if (p.band > 0) b.implicit.band_voxels = p.band;
+  return b;
+}
+
 std::string describe_point(const Point& p, const BoxSpec& base) {
-  const int sdf = std::max(8, int(std::lround(base.implicit.resolution * p.resolution_scale)));
-  const int def = std::max(4, int(std::lround(base.deformation_resolution * p.resolution_scale)));
+  const BoxSpec scaled = scaled_box(base, p);
+  const int sdf = scaled.implicit.resolution, def = scaled.deformation_resolution;
   std::string s;
   if (p.method == "object-space") return "subdivision " + std::to_string(p.levels);
   if (p.method == "bounded")
@@ -480,13 +480,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       Scene s = scene;
       s.render.texture_bits = p.bits;
       s.render.sampling = p.method == "bounded" ? "bounded" : "linear";
-      for (BoxSpec& b : s.boxes) {
-        b.implicit.resolution =
-            std::max(8, int(std::lround(b.implicit.resolution * p.resolution_scale)));
-        b.deformation_resolution =
-            std::max(4, int(std::lround(b.deformation_resolution * p.resolution_scale)));
-        if (p.band > 0) b.implicit.band_voxels = p.band;
-      }
+      for (BoxSpec& b : s.boxes) b = scaled_box(b, p);
       std::ostringstream log;
       return bakes.emplace(key, prepare_scene(s, log)).first->second;
     };
@@ -506,7 +500,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       renderer.set_boxes(prepared.textures());
       RenderSettings settings = scene.render;
       settings.sampling = "bounded";
-      settings.max_steps = std::max(settings.max_steps, 4096);
+      settings.max_steps = std::max(settings.max_steps, kBoundedMaxSteps);
       bounded_image = renderer.render(camera, options.size, options.size, settings);
     }
     for (size_t pi = 0; pi < points.size(); ++pi) {
@@ -548,18 +542,18 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         settings.threshold_voxels = p.threshold;
         settings.hit_epsilon_voxels = p.epsilon;
         settings.texture_bits = p.bits;
-        if (p.method == "bounded") settings.max_steps = std::max(settings.max_steps, 4096);
+        if (p.method == "bounded")
+          settings.max_steps = std::max(settings.max_steps, kBoundedMaxSteps);
         renderer.set_mesh(prepared.mesh);
         renderer.set_boxes(prepared.textures());
         r.memory_bytes = renderer.texture_bytes();
         const BoxTextures& t = prepared.boxes[0].textures;
-        r.sdf_resolution = scene.boxes[0].implicit.resolution;
-        r.sdf_resolution = std::max(8, int(std::lround(r.sdf_resolution * p.resolution_scale)));
-        r.deformation_resolution = std::max(
-            4, int(std::lround(scene.boxes[0].deformation_resolution * p.resolution_scale)));
+        const BoxSpec scaled = scaled_box(scene.boxes[0], p);
+        r.sdf_resolution = scaled.implicit.resolution;
+        r.deformation_resolution = scaled.deformation_resolution;
         r.band_voxels = t.sdf.band_voxels;
       }
-      r.ms = frame_median(renderer, camera, options.size, settings, options.frames);
+      r.ms = frame_median(renderer, camera, options.size, options.size, settings, options.frames);
       image = renderer.render(camera, options.size, options.size, settings);
       const Measure m = measure(image, truth);
       r.iou = m.c.iou;
@@ -583,7 +577,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       renderer.set_boxes(base.textures());
       Goal g;
       g.scene = name;
-      g.ms = frame_median(renderer, camera, gs, scene.render, std::max(options.frames, 5));
+      g.ms = frame_median(renderer, camera, gs, gs, scene.render, std::max(options.frames, 5));
       const Measure m = measure(renderer.render(camera, gs, gs, scene.render), goal_truth);
       g.over = m.c.fraction_over;
       g.iou = m.c.iou;
@@ -626,7 +620,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         "the whole mesh uniformly (each triangle into 4 per level) and moves the vertices inside "
         "the box by the exact forward map, as a vertex shader would; it cannot show a cut, so "
         "it runs on continuous deformations only. `bounded` runs with max_steps raised to "
-        "4096.\n\n";
+     << kBoundedMaxSteps << ".\n\n";
   md << "![error against frame time](pareto.png)\n\n";
   md << "*pareto.png: fraction of pixels over 1 % of the diagonal (log; " << floor
      << " = none over) against frame ms (log), one colour per method, the Pareto front in "
