@@ -145,7 +145,7 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
 }
 
 DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                                    int resolution) {
+                                    int resolution, bool centre_on_lower_faces) {
   if (resolution < 1)
     throw Error("bake_deformation: resolution = " + std::to_string(resolution) + ": must be >= 1");
   const auto start = std::chrono::steady_clock::now();
@@ -157,6 +157,16 @@ DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vecto
   DeformationTexture texture;
   Grid3<Eigen::Vector4f>& grid = texture.grid;
   grid = make_grid_over(bounds.min(), bounds.max(), resolution, Eigen::Vector4f::Zero().eval());
+  if (centre_on_lower_faces) {
+    for (int a = 0; a < 3; ++a) {
+      const double k = (-half_extents[a] - grid.origin[a]) / grid.spacing - 0.5;
+      const double shift = k - std::floor(k);  // a centre lies `shift` texels above -h
+      grid.origin[a] += (shift - 1.0) * grid.spacing;
+      grid.dims[a] += 1;
+    }
+    grid.data.assign(static_cast<size_t>(grid.dims.x()) * grid.dims.y() * grid.dims.z(),
+                     Eigen::Vector4f::Zero());
+  }
 
   std::atomic<bool> all_finite{true};
   for_each_slice(grid.dims.z(), [&](int k) {

@@ -82,8 +82,13 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
 
 // Bakes D(p') = F^-1(p') - p' at the texel centres of a grid over the bounds of F(box) (padded by
 // one texel), `resolution` texels along its longest side. w = 1 where F^-1(p') lies in the box.
+// With `centre_on_lower_faces`, the grid is shifted down by less than a texel (and grown by one
+// along each axis) so that texel centres lie on the planes of the box's lower faces, -h: a map
+// that is linear in the axis coordinate from a kink at face -a (a twist's angle, clamped to 0
+// below the face) is then interpolated exactly across that face, which an animation that reads
+// a thin slab next to it through a scale M (editor/animate.h) needs.
 DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                                    int resolution);
+                                    int resolution, bool centre_on_lower_faces = false);
 
 // The interpolation error of a baked texture: the largest |D(p') - (F^-1(p') - p')| over the
 // centres of the texture's cells (where trilinear interpolation is worst, between texels) whose

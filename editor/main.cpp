@@ -1,11 +1,14 @@
 // The `raywarp` command line: a thin layer over the library.
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 
+#include "editor/animate.h"
 #include "editor/pipeline.h"
 #include "editor/stability.h"
 #include "editor/study.h"
@@ -24,15 +27,65 @@ struct RenderOptions {
   std::string scene, output, depth, mask, camera;
   std::string context = "auto";
   int width = 0, height = 0;
-  int frames = 1;
+  int time_frames = 0;
+  int frames = 0;  // > 0: an animation of this many frames
+  std::vector<std::string> params;
+  int delay_cs = 4;
+  std::string cache_dir;
+  bool no_cache = false;
+  bool gif_only = false;
 };
+
+// The bake cache a command uses: --cache-dir, else the default folder; none with --no-cache or
+// when no default folder can be found.
+std::unique_ptr<BakeCache> open_cache(const std::string& dir, bool none) {
+  if (none) return nullptr;
+  fs::path path = dir.empty() ? BakeCache::default_dir() : fs::path(dir);
+  if (path.empty()) {
+    std::cerr << "note: no bake cache (set RAYWARP_CACHE_DIR, XDG_CACHE_HOME or HOME, or give "
+                 "--cache-dir)\n";
+    return nullptr;
+  }
+  return std::make_unique<BakeCache>(path);
+}
+
+void report_cache(const BakeCache* cache) {
+  if (!cache) return;
+  std::cerr << "bake cache " << cache->dir().string() << ": " << cache->hits << " read, "
+            << cache->stores << " stored\n";
+}
 
 void ensure_parent(const std::string& path) {
   fs::path parent = fs::path(path).parent_path();
   if (!parent.empty()) fs::create_directories(parent);
 }
 
+int run_animation(const RenderOptions& opt) {
+  AnimationOptions a;
+  a.scene = opt.scene;
+  for (const auto& p : opt.params) a.params.push_back(parse_animated_param(p));
+  a.frames = opt.frames;
+  a.camera = opt.camera;
+  a.width = opt.width;
+  a.height = opt.height;
+  a.context = opt.context;
+  a.output = opt.output;
+  a.delay_cs = opt.delay_cs;
+  a.write_frames = !opt.gif_only;
+  auto cache = open_cache(opt.cache_dir, opt.no_cache);
+  a.cache = cache.get();
+  if (!opt.depth.empty() || !opt.mask.empty())
+    throw Error("--depth and --mask write single frames; leave them out with --frames");
+  animate(a, std::cerr);
+  report_cache(cache.get());
+  return 0;
+}
+
 int run_render(const RenderOptions& opt) {
+  if (opt.frames > 0 || !opt.params.empty()) {
+    if (opt.frames == 0) throw Error("--param needs --frames N (N >= 2), the sequence's length");
+    return run_animation(opt);
+  }
   Scene scene = load_scene(opt.scene);
   Camera camera;
   if (!opt.camera.empty())
@@ -43,7 +96,13 @@ int run_render(const RenderOptions& opt) {
     throw Error(opt.scene + ": camera: missing; give \"camera\" in the scene or --camera FILE");
   Eigen::Vector2i size = image_size(scene, camera, opt.width, opt.height);
 
-  PreparedScene prepared = prepare_scene(scene, std::cerr);
+  auto cache = open_cache(opt.cache_dir, opt.no_cache);
+  const auto bake_start = std::chrono::steady_clock::now();
+  PreparedScene prepared = prepare_scene(scene, std::cerr, cache.get());
+  std::cerr << "textures: " << prepared.bakes << " baked in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - bake_start).count()
+            << " s (mesh and cache reads included)\n";
+  report_cache(cache.get());
   auto context = gl::create_context(opt.context);
   std::cerr << "context: " << context->description() << "\n";
   gl::Renderer renderer;
@@ -53,15 +112,15 @@ int run_render(const RenderOptions& opt) {
   Image image = renderer.render(camera, size.x(), size.y(), scene.render, &stats);
   std::cerr << "frame: " << size.x() << "x" << size.y() << " in " << stats.milliseconds << " ms, "
             << renderer.texture_bytes() / (1 << 20) << " MiB of textures\n";
-  if (opt.frames > 1) {
+  if (opt.time_frames > 0) {
     // The first frame above also paid for llvmpipe's shader compilation; time the rest.
     std::vector<double> ms;
-    for (int f = 0; f < opt.frames; ++f) {
+    for (int f = 0; f < opt.time_frames; ++f) {
       renderer.render(camera, size.x(), size.y(), scene.render, &stats);
       ms.push_back(stats.milliseconds);
     }
     std::sort(ms.begin(), ms.end());
-    std::cerr << "frames: median " << ms[ms.size() / 2] << " ms of " << opt.frames
+    std::cerr << "frames: median " << ms[ms.size() / 2] << " ms of " << opt.time_frames
               << " after the first (min " << ms.front() << ", max " << ms.back() << ")\n";
   }
   if (stats.nonfinite_pixels > 0)
@@ -184,15 +243,40 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 8192));
   render->add_option("--height", ropt.height, "Image height in pixels (overrides camera and scene)")
       ->check(CLI::Range(1, 8192));
+  render->add_option("--time", ropt.time_frames, "Also time N more frames and print their median")
+      ->check(CLI::Range(1, 10000));
   render
       ->add_option("--frames", ropt.frames,
-                   "Also time this many more frames and print their median")
-      ->check(CLI::Range(1, 10000));
+                   "Render an animation of N frames while each --param runs from FROM to TO: "
+                   "OUTPUT_0000.png ... and OUTPUT.gif beside OUTPUT")
+      ->check(CLI::Range(2, 10000));
+  render->add_option("--param", ropt.params,
+                     "FIELD=FROM:TO, a numeric field of the scene file to animate, e.g. "
+                     "boxes[0].deformer.angle_deg=0:360 (repeatable). A single twist's angle "
+                     "is animated by the texture map M with one bake; other fields re-bake "
+                     "every frame");
+  render->add_flag("--gif-only", ropt.gif_only, "With --frames: write the GIF only, no PNG frames");
+  render->add_option("--delay", ropt.delay_cs, "GIF frame delay in 1/100 s")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  render->add_option("--cache-dir", ropt.cache_dir,
+                     "Bake cache folder (default $RAYWARP_CACHE_DIR, else "
+                     "$XDG_CACHE_HOME/raywarp, else ~/.cache/raywarp)");
+  render->add_flag("--no-cache", ropt.no_cache, "Bake everything; read and store no cache entry");
   render->footer(
       "Image size: --width/--height, else the camera's width/height, else the scene's render "
       "block.\n"
       "Example: raywarp render examples/bunny_twist.json -o out/bunny_twist.png --depth "
-      "out/bunny_twist.f32");
+      "out/bunny_twist.f32\n"
+      "         raywarp render examples/bunny_twist.json -o out/anim/twist.png --frames 60 "
+      "--param boxes[0].deformer.angle_deg=0:360");
+
+  std::string cache_dir;
+  bool cache_clear = false;
+  auto* cache_cmd = app.add_subcommand(
+      "cache", "Show the bake cache's folder, entries and size, or empty it with --clear");
+  cache_cmd->add_option("--dir", cache_dir, "Cache folder (default as for render)");
+  cache_cmd->add_flag("--clear", cache_clear, "Remove every entry");
 
   std::string info_path;
   auto* info =
@@ -234,6 +318,21 @@ int main(int argc, char** argv) {
   try {
     if (*render) return run_render(ropt);
     if (*info) return run_info(info_path);
+    if (*cache_cmd) {
+      const fs::path dir = cache_dir.empty() ? BakeCache::default_dir() : fs::path(cache_dir);
+      if (dir.empty())
+        throw Error(
+            "cache: no folder (set RAYWARP_CACHE_DIR, XDG_CACHE_HOME or HOME, or give --dir)");
+      if (cache_clear) {
+        std::cout << "removed " << BakeCache::clear(dir) << " entries from " << dir.string()
+                  << "\n";
+      } else {
+        const auto c = BakeCache::contents(dir);
+        std::cout << dir.string() << ": " << c.entries << " entries, " << c.bytes / double(1 << 20)
+                  << " MiB\n";
+      }
+      return 0;
+    }
     if (*study) {
       sopt.size_given = study->count("--size") > 0;
       return run_study_cli(sopt);

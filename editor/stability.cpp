@@ -68,6 +68,9 @@ bool textures_finite(const PreparedScene& prepared) {
   for (const PreparedBox& box : prepared.boxes) {
     for (float v : box.textures.sdf.grid.data)
       if (!std::isfinite(v)) return false;
+    for (const DepthMap& m : box.textures.depth_cube.maps)
+      for (float v : m.depth)
+        if (!std::isfinite(v)) return false;
     for (const Eigen::Vector4f& v : box.textures.deformation.grid.data)
       if (!v.allFinite()) return false;
     for (float v : box.textures.alpha.grid.data)
@@ -153,7 +156,7 @@ void measure(StabilityCase& c, int size, int frames) {
     } else {
       auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
       truth_mesh = ground_truth_mesh(prepared.mesh, box.textures.box, F,
-                                     0.5 * box.textures.sdf.grid.spacing);
+                                     0.5 * implicit_spacing(box.textures));
     }
   }
   bool within = true;

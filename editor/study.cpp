@@ -205,7 +205,7 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
     Mesh m = prepared.mesh;
     for (const PreparedBox& b : prepared.boxes) {
       auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
-      m = ground_truth_mesh(m, b.textures.box, F, 0.25 * b.textures.sdf.grid.spacing);
+      m = ground_truth_mesh(m, b.textures.box, F, 0.25 * implicit_spacing(b.textures));
     }
     t.diagonal = mesh_bounds(m).diagonal().norm();
     t.image = rasterize(m, camera, size, size, scene.render);
@@ -227,7 +227,7 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
     if (spec.deformer.type == "incision" && spec.cut_mode == CutMode::Hollow) {
       auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
       Mesh m = ground_truth_mesh(prepared.mesh, b.textures.box, F,
-                                 0.25 * b.textures.sdf.grid.spacing, spec.deformer.axis);
+                                 0.25 * implicit_spacing(b.textures), spec.deformer.axis);
       t.image = rasterize(m, camera, size, size, scene.render);
       t.kind = "exact: the mesh split at the box faces and the cut plane, mapped from each side";
       return t;

@@ -247,16 +247,22 @@ struct Sample {
 };
 
 // `beyond_ok`: the previous sample lay in the box, so (when D = 0) a point beyond it is read.
+// D and w at p', read at M p' (BoxTextures::texture_map), as the shader's deformation().
+Eigen::Vector4d deformation_at(const BoxTextures& box, const Vec3& p_def) {
+  const Eigen::Vector4d q = box.texture_map * p_def.homogeneous();
+  return box.deformation.grid.sample(q.head<3>());
+}
+
 Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
   Sample s;
   if (box.moves_nothing) {
     s.valid = beyond_ok || box.box.contains_local(p_def);
-    s.f = s.valid ? box.sdf.grid.sample(p_def).value() : -box.sdf.background;
+    s.f = s.valid ? implicit_value(box, p_def) : -implicit_background(box);
   } else {
-    Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
+    Eigen::Vector4d dv = deformation_at(box, p_def);
     Vec3 p = p_def + dv.head<3>();
     s.valid = dv.w() >= 0.5 && box.box.contains_local(p);
-    s.f = s.valid ? box.sdf.grid.sample(p).value() : -box.sdf.background;
+    s.f = s.valid ? implicit_value(box, p) : -implicit_background(box);
   }
   if (box.has_cut) s.a = box.alpha.grid.sample(p_def).value();
   return s;
@@ -270,7 +276,7 @@ double surface(const BoxTextures& box, double f) {
 
 // The solid the ray looks for (> 0 inside): the surface minus the cut.
 double value(const BoxTextures& box, const Sample& s) {
-  if (!s.valid) return -box.sdf.background;
+  if (!s.valid) return -implicit_background(box);
   if (box.has_cut && box.cut_mode != CutMode::Hollow) return std::min(surface(box, s.f), -s.a);
   return s.f;
 }
@@ -281,6 +287,7 @@ constexpr double kSqrt3 = 1.7320508075688772;
 double skip_distance(const BoxTextures& box, const Sample& s) {
   if (!s.valid) return 0.0;
   if (box.has_cut && s.a > 0.0) return s.a / kSqrt3;
+  if (box.uses_depth_cube) return 0.0;  // its |f| bounds no distance (the cut's skip stays)
   double room = box.has_cut && box.cut_mode == CutMode::Hollow ? std::abs(s.f) : -surface(box, s.f);
   double skip = room / (kSqrt3 * box.lipschitz);
   if (box.has_cut && !box.moves_nothing) skip = std::min(skip, -s.a - cut_margin(box));
@@ -289,16 +296,15 @@ double skip_distance(const BoxTextures& box, const Sample& s) {
 
 Vec3 displacement(const BoxTextures& box, const Vec3& p_def) {
   if (box.moves_nothing) return Vec3::Zero();
-  return box.deformation.grid.sample(p_def).head<3>();
+  return deformation_at(box, p_def).head<3>();
 }
 
 // The `bounded` tracer's function (see StepBounds): g = min(f(p), b(p), (w - 1/2) / L_w) at
 // p = p' + D(p'), > 0 exactly where a sample is inside; `p` gets the preimage.
 double bounded_g(const BoxTextures& box, const Vec3& p_def, Vec3* p) {
-  const Eigen::Vector4d dv = box.deformation.grid.sample(p_def);
+  const Eigen::Vector4d dv = deformation_at(box, p_def);
   *p = p_def + dv.head<3>();
-  double g =
-      std::min(box.sdf.grid.sample(*p).value(), (box.box.half_extents - p->cwiseAbs()).minCoeff());
+  double g = std::min(implicit_value(box, *p), (box.box.half_extents - p->cwiseAbs()).minCoeff());
   if (box.step_bounds.validity_lipschitz > 0.0)
     g = std::min(g, (dv.w() - 0.5) / box.step_bounds.validity_lipschitz);
   return g;
@@ -316,7 +322,7 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
     throw Error(
         "ray_cast_box: sampling \"bounded\" needs the box's step bounds "
         "(bake_step_bounds)");
-  const double h = box.sdf.grid.spacing;
+  const double h = implicit_spacing(box);
   const double epsilon = settings.hit_epsilon_voxels * h, seam = kSeamVoxels * h;
   double t = t0;
   Vec3 p;
@@ -356,13 +362,12 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
 // spacing (not normalised).
 Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def) {
   Vec3 p = p_def + displacement(box, p_def);
-  double hf = box.sdf.grid.spacing, hd = box.deformation.grid.spacing;
+  double hf = implicit_spacing(box), hd = box.deformation.grid.spacing;
   Vec3 grad_f;
   Eigen::Matrix3d jd;  // columns: dD/dx, dD/dy, dD/dz
   for (int a = 0; a < 3; ++a) {
     Vec3 ef = Vec3::Unit(a) * hf, ed = Vec3::Unit(a) * hd;
-    grad_f[a] =
-        (box.sdf.grid.sample(p + ef).value() - box.sdf.grid.sample(p - ef).value()) / (2.0 * hf);
+    grad_f[a] = (implicit_value(box, p + ef) - implicit_value(box, p - ef)) / (2.0 * hf);
     jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd);
   }
   return (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
@@ -654,12 +659,12 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   const bool skip = skipping_pays(box, settings.step_voxels, settings.skipping);
   auto at = [&](double t, bool beyond_ok) { return sample_at(box, o + t * d, beyond_ok); };
   // Linear search (eq. 3), bounded by max_steps.
-  const double step = settings.step_voxels * box.sdf.grid.spacing;
+  const double step = settings.step_voxels * implicit_spacing(box);
   // Besides the regular samples (or skips), one just before each crossing of a box face plane:
   // that catches slivers of S_D thinner than a step that end on a face (at the seam with the
   // raster pass, where a missed sliver would show the mesh's inside).
   const double before = 1e-3 * step;
-  const double seam = kSeamVoxels * box.sdf.grid.spacing;
+  const double seam = kSeamVoxels * implicit_spacing(box);
   double crossings[6];
   for (int a = 0; a < 3; ++a)
     for (int s = 0; s < 2; ++s)
@@ -679,7 +684,7 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
     double advance = step;
     if (settings.sampling == "threshold") {
       const double watched = hollow ? s.f : value(box, s);
-      if (s.valid && std::abs(watched) < settings.threshold_voxels * box.sdf.grid.spacing)
+      if (s.valid && std::abs(watched) < settings.threshold_voxels * implicit_spacing(box))
         advance = step * settings.fine_factor;
     } else if (settings.sampling == "jacobian" && !box.moves_nothing) {
       advance = jacobian_step(box, o + t * d, d, step);

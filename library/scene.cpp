@@ -27,9 +27,6 @@ constexpr double kMaxRotationDeg = 360.0;
 constexpr int kMaxImageSide = 8192;
 // Textures of all boxes together; checked at load time, before anything is allocated.
 
-// Deformer types of DESIGN.md that this release does not build yet, for a helpful message.
-constexpr const char* kLaterDeformers[] = {"points"};
-
 // Integers as integers, anything else in the shortest form that reads back exactly.
 std::string format_number(double x) {
   char buf[32];
@@ -228,7 +225,9 @@ Box read_box_geometry(const SceneReader& r, const json& j, const std::string& fi
   return axis_aligned ? read_min_max(r, j, field) : read_centred(r, j, field);
 }
 
-const char* const kDeformerTypes = "twist, bend, peel, incision, box_cut";
+const char* const kDeformerTypes = "twist, bend, peel, incision, box_cut, control_points";
+constexpr size_t kMaxControlPoints = 1024;  // the interpolant's dense solve grows as n^3
+constexpr size_t kMaxComposed = 8;
 
 bool is_cut(const DeformerSpec& d) {
   return d.type == "peel" || d.type == "incision" || d.type == "box_cut";
@@ -315,24 +314,66 @@ void read_box_cut(const SceneReader& r, const json& j, const std::string& field,
   if (j.contains("wedge")) read_wedge(r, j["wedge"], child(field, "wedge"), d);
 }
 
-DeformerSpec read_deformer(const SceneReader& r, const json& j, const std::string& field) {
-  if (j.is_array())
-    r.fail(field, j,
-           "must be one deformer object; lists of deformers are not available in this version");
+std::string describe_box(const Box& b);
+
+void read_control_points(const SceneReader& r, const json& j, const std::string& field,
+                         const Box& box, DeformerSpec& d) {
+  r.check_keys(j, field, {"type", "points", "radius", "pinned"});
+  const std::string points = child(field, "points");
+  const json& list = r.required(j, field, "points",
+                                "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs");
+  if (!list.is_array() || list.empty() || list.size() > kMaxControlPoints)
+    r.fail(points, list,
+           "must be a list of 1 to " + std::to_string(kMaxControlPoints) +
+               " {\"from\": [x, y, z], \"to\": [x, y, z]} pairs (object coordinates)");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string at = element(points, i);
+    r.require_object(list[i], at, "{\"from\": [x, y, z], \"to\": [x, y, z]}");
+    r.check_keys(list[i], at, {"from", "to"});
+    PointPair pair;
+    pair.source = box.to_local(
+        r.vec3(r.required(list[i], at, "from", "give the point's undeformed position [x, y, z]"),
+               child(at, "from"), closed(-kMaxCoordinate, kMaxCoordinate)));
+    const Eigen::Vector3d outside = pair.source.cwiseAbs() - box.half_extents * (1.0 + 1e-9);
+    if (outside.maxCoeff() > 0.0)
+      r.fail(child(at, "from"), list[i]["from"],
+             "must lie in the box (" + describe_box(box) +
+                 "): a control point moves the part of the mesh inside its box");
+    pair.target = box.to_local(
+        r.vec3(r.required(list[i], at, "to", "give the point's deformed position [x, y, z]"),
+               child(at, "to"), closed(-kMaxCoordinate, kMaxCoordinate)));
+    d.points.push_back(pair);
+  }
+  if (j.contains("radius"))
+    d.influence_radius =
+        r.number(j["radius"], child(field, "radius"), {0.0, kMaxCoordinate, false, false, true});
+  if (j.contains("pinned")) {
+    const std::string pinned = child(field, "pinned");
+    const std::string allowed = "must be a list of box faces such as [\"-y\", \"+y\"]";
+    if (!j["pinned"].is_array()) r.fail(pinned, j["pinned"], allowed);
+    for (size_t i = 0; i < j["pinned"].size(); ++i) {
+      std::string face =
+          r.one_of(j["pinned"][i], element(pinned, i), {"-x", "+x", "-y", "+y", "-z", "+z"});
+      d.pinned[2 * (face[1] - 'x') + (face[0] == '+' ? 1 : 0)] = true;
+    }
+  }
+}
+
+DeformerSpec read_one_deformer(const SceneReader& r, const json& j, const std::string& field,
+                               const Box& box) {
   r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
   const json& type = r.required(j, field, "type", std::string("give one of ") + kDeformerTypes);
-  std::string note;
-  for (const char* later : kLaterDeformers)
-    if (type == later) note = " (" + std::string(later) + " is not available in this version)";
   DeformerSpec d;
-  d.type =
-      r.one_of(type, child(field, "type"), {"twist", "bend", "peel", "incision", "box_cut"}, note);
+  d.type = r.one_of(type, child(field, "type"),
+                    {"twist", "bend", "peel", "incision", "box_cut", "control_points"});
   if (d.type == "peel") {
     read_peel(r, j, field, d);
   } else if (d.type == "incision") {
     read_incision(r, j, field, d);
   } else if (d.type == "box_cut") {
     read_box_cut(r, j, field, d);
+  } else if (d.type == "control_points") {
+    read_control_points(r, j, field, box, d);
   } else {
     r.check_keys(j, field, {"type", "axis", "angle_deg"});
     d.axis = read_axis(r, j, field, "axis", "give one of x, y, z");
@@ -344,11 +385,47 @@ DeformerSpec read_deformer(const SceneReader& r, const json& j, const std::strin
   return d;
 }
 
+// One deformer object, or a list of them applied in order (continuous deformers only).
+void read_deformers(const SceneReader& r, const json& j, const std::string& field, BoxSpec& b) {
+  if (!j.is_array()) {
+    b.deformer = read_one_deformer(r, j, field, b.box);
+    return;
+  }
+  if (j.empty() || j.size() > kMaxComposed)
+    r.fail(field, j,
+           "must be one deformer object or a list of 1 to " + std::to_string(kMaxComposed) +
+               " deformers applied in order");
+  for (size_t i = 0; i < j.size(); ++i) {
+    DeformerSpec d = read_one_deformer(r, j[i], element(field, i), b.box);
+    if (is_cut(d) && j.size() > 1)
+      r.fail(child(element(field, i), "type"), j[i]["type"],
+             "a cut (peel, incision, box_cut) cannot be composed with other deformers; give it a "
+             "box of its own, or list only twist, bend and control_points");
+    if (i == 0)
+      b.deformer = std::move(d);
+    else
+      b.then.push_back(std::move(d));
+  }
+}
+
 ImplicitSpec read_implicit(const SceneReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"type\": \"sdf\", \"resolution\": ...}");
   r.check_keys(j, field, {"type", "resolution", "band_voxels", "margin_voxels"});
   ImplicitSpec s;
-  if (j.contains("type")) s.type = r.one_of(j["type"], child(field, "type"), {"sdf"});
+  if (j.contains("type"))
+    s.type = r.one_of(j["type"], child(field, "type"), {"sdf", "depth_cube"},
+                      " (sdf: a signed distance grid; depth_cube: six depth maps, one per face)");
+  if (s.type == "depth_cube") {
+    // Six maps of resolution^2 texels at most: a finer grid than a distance grid's fits.
+    for (const char* key : {"band_voxels", "margin_voxels"})
+      if (j.contains(key))
+        r.fail(child(field, key), j[key],
+               std::string(key) + " applies to the distance grid (type sdf); " +
+                   child(field, "type") + " is depth_cube");
+    if (j.contains("resolution"))
+      s.resolution = r.integer(j["resolution"], child(field, "resolution"), 8, 4096);
+    return s;
+  }
   if (j.contains("resolution"))
     s.resolution = r.integer(j["resolution"], child(field, "resolution"), 8, 1024);
   if (j.contains("band_voxels"))
@@ -409,11 +486,11 @@ BoxSpec read_box(const SceneReader& r, const json& j, const std::string& field) 
                 "implicit", "deformation", "cut_mode", "shell_thickness", "alpha"});
   BoxSpec b;
   b.box = read_box_geometry(r, j, field);
-  b.deformer = read_deformer(
-      r,
-      r.required(j, field, "deformer",
-                 "give {\"type\": \"twist\"|\"bend\"|\"peel\"|\"incision\"|\"box_cut\", ...}"),
-      child(field, "deformer"));
+  read_deformers(r,
+                 r.required(j, field, "deformer",
+                            "give {\"type\": \"twist\"|\"bend\"|\"peel\"|\"incision\"|"
+                            "\"box_cut\"|\"control_points\", ...} or a list of them"),
+                 child(field, "deformer"), b);
   read_cut_settings(r, j, field, b);
   if (j.contains("implicit"))
     b.implicit = read_implicit(r, j["implicit"], child(field, "implicit"));
@@ -488,6 +565,14 @@ std::uint64_t distance_grid_bytes(const BoxSpec& b) {
   return voxels * sizeof(float);
 }
 
+// The implicit surface: the distance grid, or a depth cube's six maps (one 2D array texture of
+// 6 layers, each as large as the largest map; depth_cube_bytes).
+std::uint64_t implicit_bytes(const BoxSpec& b) {
+  if (b.implicit.type == "depth_cube")
+    return depth_cube_bytes(b.box.half_extents, b.implicit.resolution);
+  return distance_grid_bytes(b);
+}
+
 std::uint64_t deformation_bytes(const BoxSpec& b) {
   std::uint64_t d = b.deformation_resolution;
   return d * d * d * 4 * sizeof(float);
@@ -520,7 +605,7 @@ void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs
   };
   bool cuts = false;
   for (size_t i = 0; i < specs.size(); ++i) {
-    std::uint64_t g = distance_grid_bytes(specs[i]), t = deformation_bytes(specs[i]),
+    std::uint64_t g = implicit_bytes(specs[i]), t = deformation_bytes(specs[i]),
                   a = alpha_bytes(specs[i]);
     grids += g;
     textures += t;
@@ -533,8 +618,8 @@ void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs
   std::uint64_t total = grids + textures + alphas;
   if (total <= kMemoryBudgetBytes) return;
   r.fail(field, value,
-         "the textures of all boxes would take " + gib(total) + " (distance grids " + gib(grids) +
-             ", deformation textures " + gib(textures) +
+         "the textures of all boxes would take " + gib(total) + " (implicit surfaces " +
+             gib(grids) + ", deformation textures " + gib(textures) +
              (cuts ? ", alpha maps " + gib(alphas) : std::string()) +
              "), more than the budget of " + gib(kMemoryBudgetBytes) +
              "; lower this resolution (the largest of them)");
@@ -630,8 +715,13 @@ json parse_file(const std::filesystem::path& path) {
 
 }  // namespace
 
+nlohmann::json read_scene_document(const std::filesystem::path& path) { return parse_file(path); }
+
 Scene load_scene(const std::filesystem::path& path) {
-  json root = parse_file(path);
+  return load_scene_json(parse_file(path), path);
+}
+
+Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& path) {
   SceneReader r(path.string());
   if (!root.is_object())
     throw Error(path.string() + ": the scene = " + show(root) +
@@ -656,6 +746,11 @@ Scene load_scene(const std::filesystem::path& path) {
                     "].deformer.type is \"" + type +
                     "\", a cut; bounded tracing needs a continuous deformation (twist, bend): use "
                     "linear, threshold or jacobian");
+      if (scene.boxes[i].implicit.type == "depth_cube")
+        throw Error(path.string() + ": render.sampling = \"bounded\": boxes[" + std::to_string(i) +
+                    "].implicit.type is \"depth_cube\", whose |f| is no distance bound; bounded "
+                    "tracing needs a distance grid (implicit.type \"sdf\"): use linear, threshold "
+                    "or jacobian");
     }
   return scene;
 }

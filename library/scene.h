@@ -2,8 +2,10 @@
 // names the file, the field, the value and what is allowed, and throws Error.
 #pragma once
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,8 +16,15 @@
 
 namespace raywarp {
 
+// A control point of the "control_points" deformer: where a point of the undeformed mesh goes, in
+// the box's local frame (the scene gives object coordinates; load_scene converts them).
+struct PointPair {
+  Eigen::Vector3d source = Eigen::Vector3d::Zero();
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+};
+
 struct DeformerSpec {
-  std::string type;      // "twist" | "bend" | "peel" | "incision" | "box_cut"
+  std::string type;      // "twist" | "bend" | "peel" | "incision" | "box_cut" | "control_points"
   int axis = 1;          // 0 = x, 1 = y, 2 = z (twist, bend: the axis; peel: the curl axis;
                          // incision: the normal of the cut plane)
   double angle_deg = 0;  // twist: any; bend: (-360, 360); peel: (0, 180]
@@ -35,18 +44,28 @@ struct DeformerSpec {
   int wedge_axis = 1;
   double wedge_from_deg = 0;
   double wedge_angle_deg = 0;  // (0, 180] when given
+  // control_points: the pairs, the radius of influence of each point (object units; 0 = every
+  // point acts on the whole box) and the faces held fixed, in the order -x, +x, -y, +y, -z, +z.
+  std::vector<PointPair> points;
+  double influence_radius = 0;
+  std::array<bool, 6> pinned{};
 };
 
 struct ImplicitSpec {
-  std::string type = "sdf";    // "sdf"
-  int resolution = 128;        // voxels along the box's longest side, [8, 1024]
-  double band_voxels = 3.0;    // narrow-band half width, [1, 32]
-  double margin_voxels = 2.0;  // grid margin around the box, [0, 64]
+  std::string type = "sdf";    // "sdf" (distance grid) | "depth_cube" (library/depth_cube.h)
+  int resolution = 128;        // voxels (texels) along the box's longest side, [8, 1024]
+                               // ([8, 4096] for a depth cube)
+  double band_voxels = 3.0;    // narrow-band half width, [1, 32] (sdf only)
+  double margin_voxels = 2.0;  // grid margin around the box, [0, 64] (sdf only)
 };
 
 struct BoxSpec {
   Box box;
+  // The box's deformers in the order they apply: `deformer` first, then each of `then` (the
+  // scene's "deformer": [a, b, c] gives deformer = a, then = {b, c}). Only continuous deformers
+  // (twist, bend, control_points) compose; a cut stands alone.
   DeformerSpec deformer;
+  std::vector<DeformerSpec> then;
   ImplicitSpec implicit;
   int deformation_resolution = 96;  // texels of D along the longest side of F(box), [4, 1024]
   // Cuts only (peel, incision, box_cut):
@@ -99,6 +118,11 @@ struct Scene {
 };
 
 Scene load_scene(const std::filesystem::path& path);
+// The scene file parsed, not yet validated (Error naming the file when it is not JSON).
+nlohmann::json read_scene_document(const std::filesystem::path& path);
+// The same from a parsed document; `path` is where it came from (errors name it, and relative
+// paths in it resolve against its folder).
+Scene load_scene_json(const nlohmann::json& document, const std::filesystem::path& path);
 // The image size by precedence: command line (when > 0), else the camera's, else `render`.
 Eigen::Vector2i image_size(const Scene& scene, const Camera& camera, int cli_width, int cli_height);
 

@@ -19,6 +19,18 @@ const char* cut_mode_name(CutMode mode) {
   return "thick_shell";
 }
 
+double implicit_spacing(const BoxTextures& b) {
+  return b.uses_depth_cube ? b.depth_cube.spacing : b.sdf.grid.spacing;
+}
+
+double implicit_background(const BoxTextures& b) {
+  return b.uses_depth_cube ? b.depth_cube.far_depth : b.sdf.background;
+}
+
+double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p) {
+  return b.uses_depth_cube ? depth_cube_value(b.depth_cube, p) : b.sdf.grid.sample(p).value();
+}
+
 Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b) {
   if (!b.region.isEmpty()) return b.region;
   return Eigen::AlignedBox3d(b.deformation.grid.origin, b.deformation.grid.upper());
@@ -44,6 +56,9 @@ float round_to_half(float x) {
 void round_textures_to_half(BoxTextures& b) {
   for (float& v : b.sdf.grid.data) v = round_to_half(v);
   b.sdf.background = round_to_half(b.sdf.background);
+  for (DepthMap& m : b.depth_cube.maps)
+    for (float& v : m.depth) v = round_to_half(v);
+  b.depth_cube.far_depth = round_to_half(b.depth_cube.far_depth);
   for (Eigen::Vector4f& v : b.deformation.grid.data)
     for (int c = 0; c < 4; ++c) v[c] = round_to_half(v[c]);
   for (float& v : b.alpha.grid.data) v = round_to_half(v);
@@ -53,6 +68,7 @@ void round_textures_to_half(BoxTextures& b) {
 bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested) {
   if (!requested) return false;
   if (b.has_cut) return true;
+  if (b.uses_depth_cube) return false;
   return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.spacing;
 }
 

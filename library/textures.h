@@ -6,6 +6,7 @@
 #include <string>
 
 #include "library/box.h"
+#include "library/depth_cube.h"
 #include "library/grid.h"
 
 namespace raywarp {
@@ -99,7 +100,11 @@ StepBound step_bound_at(const StepBounds& bounds, const Eigen::Vector3d& p_def,
 // Everything the ray caster needs for one box.
 struct BoxTextures {
   Box box;
+  // The implicit surface: the distance grid, or (uses_depth_cube) the depth-map cube, whose
+  // `sdf` then holds no texels (see implicit_spacing, implicit_background, implicit_value).
   DistanceGrid sdf;
+  DepthCube depth_cube;
+  bool uses_depth_cube = false;
   DeformationTexture deformation;
   // Where rays are cast, in the box frame: the deformation texture's region, or for a deformer
   // that moves nothing the box grown by kCapVoxels voxels (within the distance grid).
@@ -118,6 +123,11 @@ struct BoxTextures {
   AlphaMap alpha;                // empty unless has_cut
   // Lipschitz bounds for the `bounded` tracer; empty unless that sampling is used.
   StepBounds step_bounds;
+  // The affine map M of eq. 2 between the box frame and the deformation texture's frame: D is
+  // read at M p' (identity: at p'). Correa & Silver animate a deformation by moving M alone,
+  // with no re-bake (Fig. 4): a twist scaled along its axis about its fixed face is a twist of
+  // a smaller angle. Not with the `bounded` tracer, whose step bounds are baked for M = I.
+  Eigen::Matrix4d texture_map = Eigen::Matrix4d::Identity();
   // Textures stored as 16-bit floats on the GPU (their values already rounded to half precision
   // by round_to_half, so the CPU reference reads what the GPU does).
   bool half_precision = false;
@@ -129,6 +139,15 @@ float round_to_half(float x);
 // Rounds every texel of the box's textures to half precision and sets half_precision.
 void round_textures_to_half(BoxTextures& b);
 
+// The implicit's voxel, the unit of steps, thresholds, the seam tolerance and the normals'
+// differences: the distance grid's voxel, or the depth maps' texel.
+double implicit_spacing(const BoxTextures& b);
+// |f| the ray caster gives a sample outside the box's preimage (more than kSeamVoxels voxels):
+// the distance grid's background, or the depth cube's far depth.
+double implicit_background(const BoxTextures& b);
+// f at p (box frame): the distance grid sampled trilinearly, or depth_cube_value.
+double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p);
+
 // Where rays are cast for a box: `region`, or the deformation texture's region when unset.
 Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b);
 // How far from the cut empty-space skipping by the distance grid stops:
@@ -138,7 +157,8 @@ double cut_margin(const BoxTextures& b);
 // Whether empty-space skipping can pay for a box when the scene asks for it (`requested`): inside
 // a cut it always can; by the distance grid only where the longest skip, background /
 // (sqrt(3) lipschitz), exceeds the linear-search step (a twist's |I + J_D| is large enough that
-// it never does, and the skip's arithmetic would only cost).
+// it never does, and the skip's arithmetic would only cost). A depth cube's |f| is no distance
+// bound: there only skipping inside a cut pays.
 bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested);
 
 }  // namespace raywarp

@@ -5,8 +5,10 @@
 // Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
 // 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample
 // just beyond the box after one inside it reads the distance grid, for the caps of a box cut);
-// RAYWARP_SKIP (empty-space skipping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian),
-// 3 (bounded: sphere tracing with Lipschitz-bounded steps; continuous deformations only).
+// RAYWARP_SKIP (empty-space skipping); RAYWARP_TEXTURE_MAP (D read at M p', eq. 2's mapping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian),
+// 3 (bounded: sphere tracing with Lipschitz-bounded steps; continuous deformations only);
+// RAYWARP_IMPLICIT 0 (distance grid), 1 (depth-map cube, library/depth_cube.h: no skipping by f,
+// whose |f| is no distance bound).
 #include "camera.glsl"
 #include "shading.glsl"
 uniform mat4 u_object_to_box;
@@ -14,11 +16,18 @@ uniform mat3 u_box_to_object_dir;
 uniform vec3 u_half_extents;
 uniform vec3 u_region_lower;      // where rays are cast
 uniform vec3 u_region_upper;
+#if RAYWARP_IMPLICIT == 1
+uniform sampler2DArray u_depth;   // depth maps H_k, layer k: faces -x, +x, -y, +y, -z, +z
+uniform vec2 u_depth_origin[3];   // per axis: lower corner of its maps' texel grid on the face
+uniform vec2 u_depth_last[3];     // per axis: its maps' last texel centre (n_u - 1, n_v - 1)
+uniform vec2 u_depth_layer;       // texels of a layer (each map lies in its lower corner)
+#else
 uniform sampler3D u_sdf;          // f > 0 inside, object units
 uniform vec3 u_sdf_origin;        // lower corner of the grid region
 uniform vec3 u_sdf_size;          // dims * spacing
-uniform float u_sdf_spacing;
-uniform float u_background;       // |f| beyond the narrow band
+#endif
+uniform float u_sdf_spacing;      // the implicit's voxel (depth cube: its maps' texel)
+uniform float u_background;       // |f| of an invalid sample (grid: beyond its narrow band)
 uniform float u_step;             // linear-search step, object units
 uniform int u_max_steps;
 uniform int u_refine_steps;
@@ -28,6 +37,9 @@ uniform sampler3D u_deformation;  // xyz: D(p') (p = p' + D), w: validity
 uniform vec3 u_def_origin;
 uniform vec3 u_def_size;
 uniform float u_def_spacing;
+#endif
+#ifdef RAYWARP_TEXTURE_MAP
+uniform mat4 u_texture_map;       // M of eq. 2: D is read at M p'
 #endif
 #if RAYWARP_CUT != 0
 uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance to its boundary
@@ -62,10 +74,35 @@ layout(location = 1) out float out_depth;
 
 const float kSqrt3 = 1.7320508;
 
+#if RAYWARP_IMPLICIT == 1
+// The depth-map cube, as depth_cube_value (library/depth_cube.cpp): per face f_k = d_k - H_k, d_k
+// the depth of p from the face; f = min |f_k|, negated unless every f_k > 0. H at the map's
+// texel centres, clamped to its outer centres: clamp-to-edge within its corner of the layer.
+float distance_at(vec3 p) {
+  bool inside = true;
+  float nearest = 1e30;
+  for (int a = 0; a < 3; ++a) {
+    vec2 uv = a == 0 ? p.yz : (a == 1 ? p.xz : p.xy);
+    vec2 x = clamp((uv - u_depth_origin[a]) / u_sdf_spacing - 0.5, vec2(0.0), u_depth_last[a]);
+    vec2 tc = (x + 0.5) / u_depth_layer;
+    float f_lo = (u_half_extents[a] + p[a]) - texture(u_depth, vec3(tc, float(2 * a))).r;
+    float f_hi = (u_half_extents[a] - p[a]) - texture(u_depth, vec3(tc, float(2 * a + 1))).r;
+    inside = inside && f_lo > 0.0 && f_hi > 0.0;
+    nearest = min(nearest, min(abs(f_lo), abs(f_hi)));
+  }
+  return inside ? nearest : -nearest;
+}
+#else
 float distance_at(vec3 p) { return texture(u_sdf, (p - u_sdf_origin) / u_sdf_size).r; }
+#endif
 bool in_box(vec3 p) { return all(lessThanEqual(abs(p), u_half_extents)); }
 #ifndef RAYWARP_MOVES_NOTHING
-vec4 deformation(vec3 p_def) { return texture(u_deformation, (p_def - u_def_origin) / u_def_size); }
+vec4 deformation(vec3 p_def) {
+#ifdef RAYWARP_TEXTURE_MAP
+  p_def = (u_texture_map * vec4(p_def, 1.0)).xyz;
+#endif
+  return texture(u_deformation, (p_def - u_def_origin) / u_def_size);
+}
 #endif
 #if RAYWARP_CUT != 0
 float alpha_at(vec3 p_def) { return texture(u_alpha, (p_def - u_alpha_origin) / u_alpha_size).r; }
@@ -134,12 +171,16 @@ float skip_distance(Sample s) {
 #if RAYWARP_CUT != 0
   if (s.a > 0.0) return s.a / kSqrt3;  // inside the cut: A stays > 0 (section 6.2)
 #endif
+#if RAYWARP_IMPLICIT == 1
+  float skip = 0.0;                    // a depth cube's |f| bounds no distance: no skip by it
+#else
 #if RAYWARP_CUT == 1
   float room = abs(s.f);               // a thin shell: no sign change of f
 #else
   float room = -surface(s.f);          // outside the solid: f^ stays < 0
 #endif
   float skip = room / (kSqrt3 * u_lipschitz);
+#endif
 #if RAYWARP_CUT != 0 && !defined(RAYWARP_MOVES_NOTHING)
   skip = min(skip, -s.a - u_cut_margin);  // the bound holds only away from the cut
 #endif

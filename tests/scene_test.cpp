@@ -587,15 +587,54 @@ std::vector<BadCase> bad_cases() {
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "twsit"; }); },
        {": boxes[0].deformer.type = \"twsit\": must be one of twist, bend, peel, incision, "
         "box_cut"}},
-      {"DeformerTypeNotYetAvailable",
+      {"DeformerTypePoints",
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "points"; }); },
        {": boxes[0].deformer.type = \"points\": must be one of twist, bend, peel, incision, "
-        "box_cut (points is not available in this version)"}},
-      {"DeformerList",
+        "box_cut, control_points"}},
+      {"DeformerListEmpty",
+       [] { return edit([](json& j) { box0(j)["deformer"] = json::array(); }); },
+       {": boxes[0].deformer = []: must be one deformer object or a list of 1 to 8 deformers"}},
+      {"DeformerListWithCut",
        [] {
-         return edit([](json& j) { box0(j)["deformer"] = json::array({box0(j)["deformer"]}); });
+         return edit([](json& j) {
+           box0(j)["deformer"] = json::array({box0(j)["deformer"], {{"type", "box_cut"}}});
+         });
        },
-       {": boxes[0].deformer = [{", "lists of deformers are not available in this version"}},
+       {": boxes[0].deformer[1].type = \"box_cut\": a cut (peel, incision, box_cut) cannot be "
+        "composed"}},
+      {"ControlPointsEmpty",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = {{"type", "control_points"}, {"points", json::array()}};
+         });
+       },
+       {": boxes[0].deformer.points = []: must be a list of 1 to 1024"}},
+      {"ControlPointsPinnedFace",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = {{"type", "control_points"},
+                                  {"points", {{{"from", {0, 0, 0}}, {"to", {0, 0, 0}}}}},
+                                  {"pinned", {"+w"}}};
+         });
+       },
+       {": boxes[0].deformer.pinned[0] = \"+w\": must be one of -x, +x, -y, +y, -z, +z"}},
+      {"ControlPointsSourceOutside",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = {{"type", "control_points"},
+                                  {"points",
+                                   {{{"from", {0, 0, 0}}, {"to", {0, 0, 0}}},
+                                    {{"from", {0, 100, 0}}, {"to", {0, 0, 0}}}}}};
+         });
+       },
+       {": boxes[0].deformer.points[1].from = [0,100,0]: must lie in the box (centre [0, 2, 0]"}},
+      {"ControlPointsNoTo",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = {{"type", "control_points"}, {"points", {{{"from", {0, 0, 0}}}}}};
+         });
+       },
+       {": boxes[0].deformer.points[0].to: missing"}},
       {"AxisW",
        [] { return edit([](json& j) { box0(j)["deformer"]["axis"] = "w"; }); },
        {": boxes[0].deformer.axis = \"w\": must be one of x, y, z"}},
@@ -637,9 +676,9 @@ std::vector<BadCase> bad_cases() {
        {": boxes[0].deformation.resolution = 12.5: must be an integer in [4, 1024]"}},
       {"ImplicitTypeUnknown",
        [] { return edit([](json& j) {
-              box0(j)["implicit"] = {{"type", "depth_cube"}};
+              box0(j)["implicit"] = {{"type", "octree"}};
             }); },
-       {": boxes[0].implicit.type = \"depth_cube\": must be one of sdf"}},
+       {": boxes[0].implicit.type = \"octree\": must be one of sdf, depth_cube"}},
       {"BandVoxelsOutOfRange",
        [] { return edit([](json& j) {
               box0(j)["implicit"] = {{"band_voxels", 0.5}};

@@ -16,9 +16,11 @@ namespace raywarp::gl {
 
 namespace {
 
+constexpr const char* kFragmentDefine = "#define RAYWARP_FRAGMENT\n";
+
 GLuint compile(GLenum kind, const std::string& name, const std::string& defines) {
-  std::string text = assemble_shader(
-      name, defines + (kind == GL_FRAGMENT_SHADER ? "#define RAYWARP_FRAGMENT\n" : ""));
+  std::string text =
+      assemble_shader(name, defines + (kind == GL_FRAGMENT_SHADER ? kFragmentDefine : ""));
   GLuint shader = glCreateShader(kind);
   const char* src = text.c_str();
   glShaderSource(shader, 1, &src, nullptr);
@@ -90,9 +92,39 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
   return tex;
 }
 
+// A depth cube's six maps as one 2D array texture of 6 layers (R32F or R16F), map k in the lower
+// corner of layer k; the padding repeats the map's last row and column, so that a read a
+// rounding error past its last texel centre still sees clamp-to-edge.
+GLuint upload_depth_cube(const DepthCube& cube, GLenum internal) {
+  const Eigen::Vector2i size = cube.layer_size();
+  const size_t layer = static_cast<size_t>(size.x()) * size.y();
+  std::vector<float> texels(layer * 6);
+  for (int k = 0; k < 6; ++k) {
+    const DepthMap& m = cube.maps[k];
+    for (int j = 0; j < size.y(); ++j)
+      for (int i = 0; i < size.x(); ++i)
+        texels[k * layer + static_cast<size_t>(j) * size.x() + i] =
+            m.at(std::min(i, m.nu - 1), std::min(j, m.nv - 1));
+  }
+  GLuint tex = 0;
+  glGenTextures(1, &tex);
+  glBindTexture(GL_TEXTURE_2D_ARRAY, tex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, internal, size.x(), size.y(), 6, 0, GL_RED, GL_FLOAT,
+               texels.data());
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T})
+    glTexParameteri(GL_TEXTURE_2D_ARRAY, wrap, GL_CLAMP_TO_EDGE);
+  if (glGetError() != GL_NO_ERROR)
+    throw Error("OpenGL: cannot create a " + std::to_string(size.x()) + "x" +
+                std::to_string(size.y()) + "x6 2D array texture (depth cube)");
+  return tex;
+}
+
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
-  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0, sdf_bricks = 0;
+  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0, sdf_bricks = 0, depth = 0;
   size_t bytes = 0;
 };
 
@@ -106,6 +138,42 @@ void copy_mapping(Grid3<T>& to, const Grid3<T>& from) {
 
 }  // namespace
 
+bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
+  if (settings.sampling != "bounded" || b.has_cut || b.moves_nothing) return false;
+  if (b.step_bounds.empty())
+    throw Error("render.sampling = \"bounded\" needs the box's step bounds (bake_step_bounds)");
+  if (!b.texture_map.isIdentity(0.0))
+    throw Error(
+        "render.sampling = \"bounded\": its step bounds hold for the deformation texture as "
+        "baked, not read through a texture map M; re-bake instead of mapping");
+  return true;
+}
+
+std::string raycast_defines(const BoxTextures& b, const RenderSettings& settings) {
+  std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(Renderer::kMaxBoxes) + "\n";
+  int cut = 0;
+  if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
+  defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
+  if (b.moves_nothing)
+    defines += "#define RAYWARP_MOVES_NOTHING\n";
+  else if (!b.texture_map.isIdentity(0.0))
+    defines += "#define RAYWARP_TEXTURE_MAP\n";
+  const bool bounded = uses_bounded(b, settings);
+  if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping))
+    defines += "#define RAYWARP_SKIP\n";
+  const int sampling = bounded                            ? 3
+                       : settings.sampling == "threshold" ? 1
+                       : settings.sampling == "jacobian"  ? 2
+                                                          : 0;
+  defines += "#define RAYWARP_SAMPLING " + std::to_string(sampling) + "\n";
+  defines += "#define RAYWARP_IMPLICIT " + std::to_string(b.uses_depth_cube ? 1 : 0) + "\n";
+  return defines;
+}
+
+std::string raycast_fragment_source(const BoxTextures& b, const RenderSettings& settings) {
+  return assemble_shader("raycast.frag.glsl", raycast_defines(b, settings) + kFragmentDefine);
+}
+
 struct Renderer::Impl {
   GLuint raster = 0;
   std::map<std::string, GLuint> raycast;  // by variant defines
@@ -118,7 +186,8 @@ struct Renderer::Impl {
 
   void release_boxes() {
     for (auto& b : boxes) {
-      glDeleteTextures(1, &b.sdf);
+      if (b.sdf) glDeleteTextures(1, &b.sdf);
+      if (b.depth) glDeleteTextures(1, &b.depth);
       glDeleteTextures(1, &b.deformation);
       if (b.alpha) glDeleteTextures(1, &b.alpha);
       if (b.bricks) glDeleteTextures(1, &b.bricks);
@@ -162,28 +231,9 @@ struct Renderer::Impl {
 
   // Whether a box is sphere traced: "bounded" applies to continuous deformations (a cut's D
   // jumps, so no Lipschitz bound holds across it); it needs the box's step bounds.
-  static bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
-    if (settings.sampling != "bounded" || b.has_cut || b.moves_nothing) return false;
-    if (b.step_bounds.empty())
-      throw Error("render.sampling = \"bounded\" needs the box's step bounds (bake_step_bounds)");
-    return true;
-  }
-
   // The ray-cast program of a box's variant: only the code its features need.
   GLuint raycast_program(const BoxTextures& b, const RenderSettings& settings) {
-    std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
-    int cut = 0;
-    if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
-    defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
-    if (b.moves_nothing) defines += "#define RAYWARP_MOVES_NOTHING\n";
-    const bool bounded = uses_bounded(b, settings);
-    if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping))
-      defines += "#define RAYWARP_SKIP\n";
-    const int sampling = bounded                            ? 3
-                         : settings.sampling == "threshold" ? 1
-                         : settings.sampling == "jacobian"  ? 2
-                                                            : 0;
-    defines += "#define RAYWARP_SAMPLING " + std::to_string(sampling) + "\n";
+    const std::string defines = raycast_defines(b, settings);
     auto found = raycast.find(defines);
     if (found != raycast.end()) return found->second;
     GLuint program = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
@@ -266,6 +316,17 @@ void Renderer::set_mesh(const Mesh& mesh) {
   m.mesh_indices = static_cast<GLsizei>(mesh.F.size());
 }
 
+void Renderer::set_texture_map(size_t box, const Eigen::Matrix4d& texture_map,
+                               const Eigen::AlignedBox3d& region, double lipschitz) {
+  if (box >= impl_->boxes.size())
+    throw Error("set_texture_map: box " + std::to_string(box) + " of " +
+                std::to_string(impl_->boxes.size()));
+  BoxTextures& d = impl_->boxes[box].data;
+  d.texture_map = texture_map;
+  d.region = region;
+  d.lipschitz = lipschitz;
+}
+
 void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
   if (boxes.size() > static_cast<size_t>(kMaxBoxes))
     throw Error("at most " + std::to_string(kMaxBoxes) + " boxes per scene, got " +
@@ -281,14 +342,30 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
     d.region = ray_cast_region(b);
     d.moves_nothing = b.moves_nothing;
     d.lipschitz = b.lipschitz;
+    d.texture_map = b.texture_map;
     d.has_cut = b.has_cut;
     d.cut_mode = b.cut_mode;
     d.shell_thickness = b.shell_thickness;
     d.half_precision = b.half_precision;
     const GLenum r_format = b.half_precision ? GL_R16F : GL_R32F;
     const size_t channel_bytes = b.half_precision ? 2 : 4;
-    gpu.sdf = upload_3d(r_format, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
-    gpu.bytes = b.sdf.grid.size() * channel_bytes;
+    if (b.uses_depth_cube) {
+      if (b.depth_cube.empty()) throw Error("a depth-cube box has no depth maps");
+      d.uses_depth_cube = true;
+      d.depth_cube.half_extents = b.depth_cube.half_extents;
+      d.depth_cube.spacing = b.depth_cube.spacing;
+      d.depth_cube.far_depth = b.depth_cube.far_depth;
+      for (int k = 0; k < 6; ++k) {  // the mappings; the texels go to the GPU
+        DepthMap& m = d.depth_cube.maps[k];
+        m = b.depth_cube.maps[k];
+        m.depth.clear();
+      }
+      gpu.depth = upload_depth_cube(b.depth_cube, r_format);
+      gpu.bytes = b.depth_cube.texture_bytes(static_cast<int>(channel_bytes));
+    } else {
+      gpu.sdf = upload_3d(r_format, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
+      gpu.bytes = b.sdf.grid.size() * channel_bytes;
+    }
     if (!b.moves_nothing) {
       gpu.deformation =
           upload_3d(b.half_precision ? GL_RGBA16F : GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
@@ -392,6 +469,7 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.i1("u_max_steps", settings.max_steps);
     rc.i1("u_refine_steps", settings.refine_steps);
     const auto& sdf = b.data.sdf.grid;
+    const double voxel = implicit_spacing(b.data);  // the distance grid's, or the depth maps'
     const auto& def = b.data.deformation.grid;
     const auto& alpha = b.data.alpha.grid;
     rc.mat4("u_box_to_object", b.data.box.local_to_object());
@@ -402,22 +480,23 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.vec3("u_region_upper", b.data.region.max());
     rc.vec3("u_sdf_origin", sdf.origin);
     rc.vec3("u_sdf_size", sdf.extent());
-    rc.f1("u_sdf_spacing", sdf.spacing);
-    rc.f1("u_background", b.data.sdf.background);
+    rc.f1("u_sdf_spacing", voxel);
+    rc.f1("u_background", implicit_background(b.data));
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
     rc.f1("u_def_spacing", def.spacing);
+    rc.mat4("u_texture_map", b.data.texture_map);
     rc.vec3("u_alpha_origin", alpha.origin);
     rc.vec3("u_alpha_size", alpha.extent());
     rc.f1("u_alpha_spacing", alpha.spacing);
     rc.f1("u_thickness", b.data.shell_thickness);
     rc.f1("u_lipschitz", b.data.lipschitz);
     rc.f1("u_cut_margin", cut_margin(b.data));
-    rc.f1("u_step", settings.step_voxels * sdf.spacing);
-    rc.f1("u_threshold", settings.threshold_voxels * sdf.spacing);
+    rc.f1("u_step", settings.step_voxels * voxel);
+    rc.f1("u_threshold", settings.threshold_voxels * voxel);
     rc.f1("u_fine_factor", settings.fine_factor);
-    rc.f1("u_seam", kSeamVoxels * sdf.spacing);
-    if (Impl::uses_bounded(b.data, settings)) {
+    rc.f1("u_seam", kSeamVoxels * voxel);
+    if (uses_bounded(b.data, settings)) {
       const StepBounds& sb = b.data.step_bounds;
       rc.i1("u_bricks", 3);
       rc.vec3("u_brick_origin", sb.bricks.origin);
@@ -426,11 +505,27 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
       rc.vec3("u_sdf_brick_origin", sb.sdf_bricks.origin);
       rc.f1("u_sdf_brick_spacing", sb.sdf_bricks.spacing);
       rc.f1("u_inv_lipschitz_w", sb.validity_lipschitz > 0.0 ? 1.0 / sb.validity_lipschitz : 0.0);
-      rc.f1("u_epsilon", settings.hit_epsilon_voxels * sdf.spacing);
+      rc.f1("u_epsilon", settings.hit_epsilon_voxels * voxel);
       glActiveTexture(GL_TEXTURE3);
       glBindTexture(GL_TEXTURE_3D, b.bricks);
       glActiveTexture(GL_TEXTURE4);
       glBindTexture(GL_TEXTURE_3D, b.sdf_bricks);
+    }
+    if (b.data.uses_depth_cube) {
+      const DepthCube& cube = b.data.depth_cube;
+      rc.i1("u_depth", 5);
+      for (int a = 0; a < 3; ++a) {
+        const DepthMap& m = cube.maps[2 * a];
+        char name[32];
+        std::snprintf(name, sizeof name, "u_depth_origin[%d]", a);
+        glUniform2f(rc.loc(name), float(m.origin.x()), float(m.origin.y()));
+        std::snprintf(name, sizeof name, "u_depth_last[%d]", a);
+        glUniform2f(rc.loc(name), float(m.nu - 1), float(m.nv - 1));
+      }
+      const Eigen::Vector2i layer = cube.layer_size();
+      glUniform2f(rc.loc("u_depth_layer"), float(layer.x()), float(layer.y()));
+      glActiveTexture(GL_TEXTURE5);
+      glBindTexture(GL_TEXTURE_2D_ARRAY, b.depth);
     }
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_3D, b.sdf);

@@ -5,6 +5,7 @@
 // back as the depth image. Needs a current gl::Context.
 #pragma once
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "library/camera.h"
@@ -20,6 +21,16 @@ struct FrameStats {
   long nonfinite_pixels = 0;  // NaN or Inf in colour or depth, replaced by background
 };
 
+// Whether a box is ray cast by the `bounded` tracer under `settings` (throws Error when the scene
+// asks for it and the box has no step bounds).
+bool uses_bounded(const BoxTextures& b, const RenderSettings& settings);
+// The #defines that select a box's ray-cast variant (cut mode, sampling, skipping, ...).
+std::string raycast_defines(const BoxTextures& b, const RenderSettings& settings);
+// The fragment shader text the renderer compiles for a box: shaders/raycast.frag.glsl with its
+// includes, and only the branches of the box's variant (assemble_shader resolves the RAYWARP_*
+// conditionals and drops comments).
+std::string raycast_fragment_source(const BoxTextures& b, const RenderSettings& settings);
+
 class Renderer {
  public:
   static constexpr int kMaxBoxes = 16;
@@ -30,6 +41,11 @@ class Renderer {
 
   void set_mesh(const Mesh& mesh);
   void set_boxes(const std::vector<BoxTextures>& boxes);  // uploads the textures
+  // Moves box `box`'s deformation texture by the map M of eq. 2 (BoxTextures::texture_map), with
+  // the region rays are cast over and the bound of |I + J_D| that go with it; no texel is
+  // uploaded again.
+  void set_texture_map(size_t box, const Eigen::Matrix4d& texture_map,
+                       const Eigen::AlignedBox3d& region, double lipschitz);
   // Renders one frame of width x height and reads it back.
   Image render(const Camera& camera, int width, int height, const RenderSettings& settings,
                FrameStats* stats = nullptr);

@@ -1,0 +1,263 @@
+#include "editor/animate.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <ostream>
+#include <regex>
+#include <sstream>
+
+#include "deformers/twist.h"
+#include "editor/format.h"
+#include "editor/pipeline.h"
+#include "library/error.h"
+#include "library/gif.h"
+#include "library/gl/context.h"
+#include "library/gl/renderer.h"
+#include "library/scene.h"
+
+namespace raywarp {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+AnimatedParam parse_animated_param(const std::string& text) {
+  const std::string expected =
+      "--param " + text +
+      ": expected FIELD=FROM:TO with a numeric field of the scene file, e.g. "
+      "boxes[0].deformer.angle_deg=0:360";
+  const size_t eq = text.find('='), colon = text.find(':', eq == std::string::npos ? 0 : eq);
+  if (eq == std::string::npos || eq == 0 || colon == std::string::npos) throw Error(expected);
+  AnimatedParam p;
+  p.path = text.substr(0, eq);
+  try {
+    size_t used_from = 0, used_to = 0;
+    const std::string from = text.substr(eq + 1, colon - eq - 1), to = text.substr(colon + 1);
+    p.from = std::stod(from, &used_from);
+    p.to = std::stod(to, &used_to);
+    if (used_from != from.size() || used_to != to.size()) throw Error(expected);
+  } catch (const std::logic_error&) {
+    throw Error(expected);
+  }
+  if (!std::isfinite(p.from) || !std::isfinite(p.to)) throw Error(expected + " (finite numbers)");
+  return p;
+}
+
+namespace {
+
+// Sets the numeric field at `path` (a.b[2].c) of the scene document to `value`. Every step but
+// the last must exist; the last may be a new key of an existing object.
+void set_field(json& doc, const AnimatedParam& param, double value, const fs::path& scene) {
+  const std::string where = scene.string() + ": --param " + param.path;
+  static const std::regex step(R"(([A-Za-z_][A-Za-z0-9_]*)|\[(\d+)\])");
+  json* node = &doc;
+  std::string walked;
+  auto it = std::sregex_iterator(param.path.begin(), param.path.end(), step);
+  size_t consumed = 0;
+  std::vector<std::smatch> steps;
+  for (; it != std::sregex_iterator(); ++it) steps.push_back(*it);
+  for (size_t i = 0; i < steps.size(); ++i) {
+    const std::smatch& m = steps[i];
+    // Steps are separated by '.' before a name (except the first) and nothing before [i].
+    size_t expected_pos = consumed + (m[1].matched && i > 0 ? 1 : 0);
+    if (static_cast<size_t>(m.position()) != expected_pos ||
+        (m[1].matched && i > 0 && param.path[consumed] != '.'))
+      throw Error(where + ": not a field path such as boxes[0].deformer.angle_deg");
+    consumed = m.position() + m.length();
+    const bool last = i + 1 == steps.size();
+    if (m[1].matched) {
+      const std::string key = m[1].str();
+      if (!node->is_object())
+        throw Error(where + ": " + (walked.empty() ? "the scene" : walked) + " is not an object");
+      walked += (walked.empty() ? "" : ".") + key;
+      if (!node->contains(key) && !last) throw Error(where + ": the scene has no " + walked);
+      node = &(*node)[key];
+    } else {
+      const size_t index = std::stoul(m[2].str());
+      if (!node->is_array() || index >= node->size())
+        throw Error(where + ": " + walked + " has no element " + std::to_string(index));
+      walked += "[" + std::to_string(index) + "]";
+      node = &(*node)[index];
+    }
+  }
+  if (steps.empty() || consumed != param.path.size())
+    throw Error(where + ": not a field path such as boxes[0].deformer.angle_deg");
+  if (!node->is_null() && !node->is_number())
+    throw Error(where + ": " + walked + " is " + node->dump() + ", not a number");
+  *node = value;
+}
+
+// The box whose twist angle alone is animated, when M can animate it; -1 otherwise, with the
+// reason in `why`.
+int mapped_twist_box(const Scene& scene, const std::vector<AnimatedParam>& params,
+                     std::string& why) {
+  if (params.size() != 1) {
+    why = "more than one parameter";
+    return -1;
+  }
+  static const std::regex angle(R"(boxes\[(\d+)\]\.deformer(\[0\])?\.angle_deg)");
+  std::smatch m;
+  const AnimatedParam& p = params[0];
+  if (!std::regex_match(p.path, m, angle)) {
+    why = p.path + " is not a twist's angle";
+    return -1;
+  }
+  const size_t box = std::stoul(m[1].str());
+  if (box >= scene.boxes.size() || scene.boxes[box].deformer.type != "twist" ||
+      !scene.boxes[box].then.empty()) {
+    why = p.path + " is not the angle of a box's only deformer, a twist";
+    return -1;
+  }
+  if (scene.render.sampling == "bounded") {
+    why = "the bounded tracer's step bounds hold for the texture as baked";
+    return -1;
+  }
+  if (p.from * p.to < 0.0) {
+    why = "the angle changes sign (a twist is scaled about its fixed face, not mirrored)";
+    return -1;
+  }
+  if (p.from == 0.0 && p.to == 0.0) {
+    why = "the angle stays 0";
+    return -1;
+  }
+  return static_cast<int>(box);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace
+
+AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
+  if (opt.frames < 2 || opt.frames > 10000)
+    throw Error("--frames " + std::to_string(opt.frames) + ": must be 2 to 10000");
+  if (opt.params.empty())
+    throw Error("--frames: give at least one --param FIELD=FROM:TO to animate");
+  const json document = read_scene_document(opt.scene);
+  auto scene_at = [&](int frame) {
+    json doc = document;
+    for (const auto& p : opt.params) set_field(doc, p, p.at(frame, opt.frames), opt.scene);
+    return load_scene_json(doc, opt.scene);
+  };
+  // Every frame's scene is validated before anything is baked or written.
+  std::vector<Scene> scenes;
+  for (int f = 0; f < opt.frames; ++f) scenes.push_back(scene_at(f));
+  const Scene& first = scenes.front();
+
+  Camera camera;
+  if (!opt.camera.empty())
+    camera = load_camera(opt.camera);
+  else if (first.camera)
+    camera = *first.camera;
+  else
+    throw Error(opt.scene.string() +
+                ": camera: missing; give \"camera\" in the scene or --camera FILE");
+  const Eigen::Vector2i size = image_size(first, camera, opt.width, opt.height);
+
+  fs::path dir = opt.output.parent_path(), stem = opt.output.stem();
+  if (stem.empty())
+    throw Error("-o " + opt.output.string() + ": give a file name such as out/anim.png");
+  if (!dir.empty()) fs::create_directories(dir);
+
+  AnimationResult result;
+  result.frames = opt.frames;
+  std::string why;
+  const int mapped_box = mapped_twist_box(first, opt.params, why);
+  result.mapped = mapped_box >= 0;
+
+  auto context = gl::create_context(opt.context);
+  log << "context: " << context->description() << "\n";
+  gl::Renderer renderer;
+  PreparedScene prepared;
+  double baked_angle = 0.0;
+  double baked_lipschitz = 0.0;
+  if (result.mapped) {
+    // Bake once, at the frame with the largest |angle|.
+    const AnimatedParam& p = opt.params[0];
+    const int widest = std::abs(p.to) >= std::abs(p.from) ? opt.frames - 1 : 0;
+    baked_angle = widest ? p.to : p.from;
+    log << "animation: " << p.path << " from " << shortest_text(p.from) << " to "
+        << shortest_text(p.to) << " over " << opt.frames
+        << " frames by the texture map M of eq. 2: one bake, at " << shortest_text(baked_angle)
+        << " degrees\n";
+    prepared = prepare_scene(scenes[widest], log, opt.cache, true);
+    ++result.bakes;
+    result.textures_baked += prepared.bakes;
+    renderer.set_mesh(prepared.mesh);
+    renderer.set_boxes(prepared.textures());
+    baked_lipschitz = prepared.boxes[mapped_box].textures.lipschitz;
+  } else {
+    log << "animation: " << opt.params.size() << " parameter(s) over " << opt.frames
+        << " frames, re-baked every frame (" << why << ")\n";
+  }
+
+  for (int f = 0; f < opt.frames; ++f) {
+    const auto start = std::chrono::steady_clock::now();
+    std::string what;
+    if (result.mapped) {
+      const BoxSpec& spec = scenes[f].boxes[mapped_box];
+      const BoxTextures& baked = prepared.boxes[mapped_box].textures;
+      const double s = spec.deformer.angle_deg / baked_angle;  // in [0, 1]
+      const int a = spec.deformer.axis;
+      const double h = spec.box.half_extents[a];
+      Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+      m(a, a) = s;
+      m(a, 3) = h * (s - 1.0);
+      // The region of this frame's deformed box, within the baked texture's; the bound of
+      // |I + J_D M| <= |I + J_D| |M| + |I - M| = L + (1 - s).
+      const double texel = baked.deformation.grid.spacing;
+      auto twist = make_twist(spec.box.half_extents, static_cast<Axis>(a), spec.deformer.angle_deg);
+      Eigen::AlignedBox3d region =
+          deformed_bounds(*twist, spec.box.half_extents, texel)
+              .intersection(Eigen::AlignedBox3d(baked.deformation.grid.origin,
+                                                baked.deformation.grid.upper()));
+      renderer.set_texture_map(mapped_box, m, region, baked_lipschitz + (1.0 - s));
+      what = "mapped (s = " + fmt("%.4g", s) + ", no bake)";
+    } else {
+      std::ostringstream bake_log;
+      prepared = prepare_scene(scenes[f], bake_log, opt.cache);
+      ++result.bakes;
+      result.textures_baked += prepared.bakes;
+      renderer.set_mesh(prepared.mesh);
+      renderer.set_boxes(prepared.textures());
+      for (const auto& b : prepared.boxes)
+        for (const auto& w : b.warnings) log << "frame " << f << ": warning: " << w << "\n";
+      what = "re-baked (" + std::to_string(prepared.bakes) +
+             " textures baked, the rest from the "
+             "cache) in " +
+             fmt("%.2f", seconds_since(start)) + " s";
+    }
+    gl::FrameStats stats;
+    Image image = renderer.render(camera, size.x(), size.y(), scenes[f].render, &stats);
+    if (stats.nonfinite_pixels > 0)
+      log << "frame " << f << ": warning: " << stats.nonfinite_pixels
+          << " pixels had a non-finite depth and were set to background\n";
+    result.frame_ms.push_back(stats.milliseconds);
+    if (opt.write_frames) {
+      char name[32];
+      std::snprintf(name, sizeof name, "_%04d.png", f);
+      write_png((dir / (stem.string() + name)).string(), image);
+    }
+    std::string values;
+    for (const auto& p : opt.params)
+      values += p.path + " = " + shortest_text(p.at(f, opt.frames)) + " ";
+    log << "frame " << f + 1 << "/" << opt.frames << ": " << values << what << ", drawn in "
+        << fmt("%.1f", stats.milliseconds) << " ms\n"
+        << std::flush;
+    result.images.push_back(std::move(image));
+  }
+  result.gif = dir / (stem.string() + ".gif");
+  write_gif(result.gif.string(), result.images, opt.delay_cs);
+  log << "bakes: " << result.bakes << " for " << opt.frames << " frames (" << result.textures_baked
+      << " textures baked); frame median " << fmt("%.1f", median(result.frame_ms)) << " ms\n";
+  if (opt.write_frames)
+    log << "wrote " << (dir / (stem.string() + "_0000.png")).string() << " ... " << opt.frames
+        << " frames, and " << result.gif.string() << "\n";
+  else
+    log << "wrote " << result.gif.string() << "\n";
+  return result;
+}
+
+}  // namespace raywarp
