@@ -19,12 +19,13 @@
 #include <string>
 #include <vector>
 
+#include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
-#include "editor/format.h"
-#include "editor/pipeline.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/format.h"
+#include "cli/pipeline.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
 

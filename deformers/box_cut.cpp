@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

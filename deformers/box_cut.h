@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "deformers/deformer.h"
-#include "library/box.h"
+#include "base/box.h"
 
 namespace raywarp {
 

@@ -1,6 +1,6 @@
 #include "deformers/composed.h"
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 
@@ -705,56 +705,6 @@ std::unique_ptr<Deformer> make_control_points(const Eigen::Vector3d& half_extent
   }
   if (warnings) warnings->insert(warnings->end(), notes.begin(), notes.end());
   return deformer;
-}
-
-InverseResidual measure_inverse_residual(const Deformer& d, const DeformationTexture& texture,
-                                         double tolerance) {
-  const Grid3<Eigen::Vector4f>& grid = texture.grid;
-  struct Slice {
-    double max = 0, sum = 0;
-    long texels = 0, over = 0, folded = 0;
-  };
-  const int slices = grid.dims.z();
-  std::vector<Slice> results(std::max(slices, 0));
-  std::atomic<int> next{0};
-  auto work = [&]() {
-    for (int k = next++; k < slices; k = next++) {
-      Slice s;
-      for (int j = 0; j < grid.dims.y(); ++j)
-        for (int i = 0; i < grid.dims.x(); ++i) {
-          const Eigen::Vector4f& texel = grid.at(i, j, k);
-          if (!(texel.w() >= 0.5f)) continue;
-          const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
-          const Eigen::Vector3d p = p_def + texel.head<3>().cast<double>();
-          const double r = (d.forward(p) - p_def).norm();
-          ++s.texels;
-          s.sum += r;
-          s.max = std::max(s.max, std::isfinite(r) ? r : std::numeric_limits<double>::infinity());
-          if (!(r <= tolerance)) ++s.over;
-          if (!(d.jacobian(p).determinant() > 0.0)) ++s.folded;
-        }
-      results[k] = s;
-    }
-  };
-  const int threads =
-      std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::max(slices, 1));
-  std::vector<std::thread> workers;
-  for (int t = 1; t < threads; ++t) workers.emplace_back(work);
-  work();
-  for (std::thread& w : workers) w.join();
-
-  InverseResidual out;
-  out.tolerance = tolerance;
-  double sum = 0.0;
-  for (const Slice& s : results) {
-    out.max = std::max(out.max, s.max);
-    sum += s.sum;
-    out.texels += s.texels;
-    out.over_tolerance += s.over;
-    out.folded += s.folded;
-  }
-  out.mean = out.texels > 0 ? sum / out.texels : 0.0;
-  return out;
 }
 
 }  // namespace raywarp

@@ -141,21 +141,4 @@ std::unique_ptr<Deformer> make_control_points(const Eigen::Vector3d& half_extent
                                               std::array<bool, 6> pinned,
                                               std::vector<std::string>* warnings = nullptr);
 
-// How well a baked texture inverts a deformer (any deformer): over the valid texels (w >= 0.5),
-// at texel centres p' with p = p' + D(p') (D as stored, in float), the residual |F(p) - p'|.
-//   max, mean      of the residual (object units)
-//   texels         valid texels measured
-//   over_tolerance those with residual > tolerance (tolerance echoes the argument)
-//   folded         those whose preimage has det(dF/dp) <= 0 (where the inverse is ambiguous)
-// The float storage of D alone leaves a residual of about |dF/dp| 2^-24 |D|.
-struct InverseResidual {
-  double max = 0, mean = 0;
-  long texels = 0;
-  long over_tolerance = 0;
-  double tolerance = 0;
-  long folded = 0;
-};
-InverseResidual measure_inverse_residual(const Deformer& d, const DeformationTexture& texture,
-                                         double tolerance);
-
 }  // namespace raywarp

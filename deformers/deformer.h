@@ -12,8 +12,9 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
-#include "library/textures.h"
+#include "base/interrupt.h"
 
 namespace raywarp {
 
@@ -74,36 +75,10 @@ struct FoldReport {
   bool folds() const { return folded_volume > 0.0; }
 };
 FoldReport measure_folds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                         int samples_per_axis = 64);
+                         int samples_per_axis = 64, Interrupter* interrupter = nullptr);
 
 // Bounds of F(box), from F on a fine lattice over the box faces, padded by `pad` (object units).
 Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                                     double pad = 0.0);
-
-// Bakes D(p') = F^-1(p') - p' at the texel centres of a grid over the bounds of F(box) (padded by
-// one texel), `resolution` texels along its longest side. w = 1 where F^-1(p') lies in the box.
-// With `centre_on_lower_faces`, the grid is shifted down by less than a texel (and grown by one
-// along each axis) so that texel centres lie on the planes of the box's lower faces, -h: a map
-// that is linear in the axis coordinate from a kink at face -a (a twist's angle, clamped to 0
-// below the face) is then interpolated exactly across that face, which an animation that reads
-// a thin slab next to it through a scale M (editor/animate.h) needs.
-DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                                    int resolution, bool centre_on_lower_faces = false);
-
-// The interpolation error of a baked texture: the largest |D(p') - (F^-1(p') - p')| over the
-// centres of the texture's cells (where trilinear interpolation is worst, between texels) whose
-// eight texels are valid and lie outside the cut, every `stride`-th cell along each axis.
-double deformation_texture_error(const Deformer& deformer, const DeformationTexture& texture,
-                                 int stride = 2);
-
-// Bakes the alpha map A = deformer.alpha at the texel centres of a grid over `region` (box
-// frame), `resolution` texels along its longest side. Requires deformer.has_cut().
-AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution);
-
-// A bound of ||I + J_D|| for the trilinear interpolation of `texture`, over every cell whose
-// centre lies outside the cut (deformer.alpha <= 0): within a cell, dD/dx_i is a bilinear blend
-// of the four cell edges' differences along x_i, so |dD/dx_i| <= m_i = max edge |dD| / spacing,
-// and ||I + J_D||_2 <= 1 + ||J_D||_F <= 1 + sqrt(m_x^2 + m_y^2 + m_z^2).
-double displacement_lipschitz(const Deformer& deformer, const DeformationTexture& texture);
 
 }  // namespace raywarp

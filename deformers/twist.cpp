@@ -6,7 +6,7 @@
 #include <numbers>
 #include <string>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <fstream>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "library/image.h"
 
 namespace raywarp {

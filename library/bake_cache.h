@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "library/grid.h"
+#include "base/grid.h"
 
 namespace raywarp {
 

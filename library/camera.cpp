@@ -4,7 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

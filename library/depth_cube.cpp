@@ -10,7 +10,7 @@
 #include <memory>
 #include <thread>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "library/winding.h"
 
 namespace raywarp {

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "library/box.h"
+#include "base/box.h"
 #include "library/mesh.h"
 
 namespace raywarp {

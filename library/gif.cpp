@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <limits>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

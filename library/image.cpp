@@ -13,7 +13,7 @@
 #include <limits>
 #include <system_error>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "library/winding.h"
 
 namespace raywarp {

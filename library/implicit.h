@@ -2,7 +2,7 @@
 #pragma once
 #include <functional>
 
-#include "library/box.h"
+#include "base/box.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "library/textures.h"

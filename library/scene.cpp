@@ -11,7 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
-#include "library/error.h"
+#include "base/error.h"
+#include "base/json_reader.h"
 
 namespace raywarp {
 
@@ -27,151 +28,6 @@ constexpr double kMaxRotationDeg = 360.0;
 constexpr int kMaxImageSide = 8192;
 // Textures of all boxes together; checked at load time, before anything is allocated.
 
-// Integers as integers, anything else in the shortest form that reads back exactly.
-std::string format_number(double x) {
-  char buf[32];
-  if (x == std::round(x) && std::abs(x) < 1e7) {
-    std::snprintf(buf, sizeof buf, "%.0f", x);
-    return buf;
-  }
-  for (int digits = 1; digits <= 17; ++digits) {
-    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
-    if (std::strtod(buf, nullptr) == x) break;
-  }
-  return buf;
-}
-
-// A value as the user wrote it, shortened so that a message stays one line.
-std::string show(const json& v) {
-  std::string s = v.dump(-1, ' ', false, json::error_handler_t::replace);
-  if (s.size() > 80) s = s.substr(0, 77) + "...";
-  return s;
-}
-
-std::string child(const std::string& field, const std::string& key) {
-  return field.empty() ? key : field + "." + key;
-}
-
-std::string element(const std::string& field, size_t i) {
-  return field + "[" + std::to_string(i) + "]";
-}
-
-// An interval of allowed numbers; infinite bounds mean "any finite number" on that side.
-struct Interval {
-  double lo = -std::numeric_limits<double>::infinity();
-  double hi = std::numeric_limits<double>::infinity();
-  bool lo_open = false, hi_open = false;
-  bool hi_is_sanity_limit = false;  // hi only refuses absurd values: say "> lo" first
-
-  bool contains(double x) const {
-    return std::isfinite(x) && (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
-  }
-  // `kind` with its article: "a number", "an integer".
-  std::string describe(const std::string& kind) const {
-    bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-    if (!has_lo && !has_hi) return "must be " + kind + "; any finite value";
-    if (hi_is_sanity_limit)
-      return std::string("must be ") + (lo_open ? "> " : ">= ") + format_number(lo) +
-             " (and at most " + format_number(hi) + ")";
-    if (!has_hi) return std::string("must be ") + (lo_open ? "> " : ">= ") + format_number(lo);
-    if (!has_lo) return std::string("must be ") + (hi_open ? "< " : "<= ") + format_number(hi);
-    return "must be " + kind + " in " + (lo_open ? "(" : "[") + format_number(lo) + ", " +
-           format_number(hi) + (hi_open ? ")" : "]");
-  }
-};
-
-Interval closed(double lo, double hi) { return {lo, hi, false, false}; }
-
-// Reads and validates one scene document; every error names the scene file, the field (a path
-// such as boxes[0].deformer.type), the value and what is allowed.
-class SceneReader {
- public:
-  explicit SceneReader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const std::string& field, const json& value,
-                         const std::string& allowed) const {
-    throw Error(file_ + ": " + field + " = " + show(value) + ": " + allowed);
-  }
-  [[noreturn]] void missing(const std::string& field, const std::string& hint) const {
-    throw Error(file_ + ": " + field + ": missing; " + hint);
-  }
-
-  void require_object(const json& j, const std::string& field, const std::string& hint) const {
-    if (!j.is_object()) fail(field, j, "must be a JSON object like " + hint);
-  }
-
-  // Unknown keys are errors (they are usually typos) that list the allowed keys.
-  void check_keys(const json& j, const std::string& field,
-                  std::initializer_list<const char*> allowed) const {
-    for (const auto& [key, value] : j.items()) {
-      bool known = false;
-      for (const char* k : allowed) known = known || key == k;
-      if (known) continue;
-      std::string list;
-      for (const char* k : allowed) list += (list.empty() ? "" : ", ") + std::string(k);
-      fail(child(field, key), value, "unknown field; allowed: " + list);
-    }
-  }
-
-  const json& required(const json& j, const std::string& field, const char* key,
-                       const std::string& hint) const {
-    if (!j.contains(key)) missing(child(field, key), hint);
-    return j[key];
-  }
-
-  double number(const json& v, const std::string& field, const Interval& allowed) const {
-    double x = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
-    if (!allowed.contains(x)) fail(field, v, allowed.describe("a number"));
-    return x;
-  }
-
-  int integer(const json& v, const std::string& field, int lo, int hi) const {
-    // Compared as double: exact for every integer in range, and huge or unsigned values
-    // cannot wrap around into the range.
-    Interval allowed = closed(lo, hi);
-    if (!v.is_number_integer() || !allowed.contains(v.get<double>()))
-      fail(field, v, allowed.describe("an integer"));
-    return v.get<int>();
-  }
-
-  Eigen::Vector3d vec3(const json& v, const std::string& field, const Interval& allowed) const {
-    if (!v.is_array() || v.size() != 3) fail(field, v, "must be an array of 3 numbers");
-    Eigen::Vector3d out;
-    for (int i = 0; i < 3; ++i) out[i] = number(v[i], element(field, i), allowed);
-    return out;
-  }
-
-  std::string one_of(const json& v, const std::string& field,
-                     std::initializer_list<const char*> allowed,
-                     const std::string& note = "") const {
-    std::string list;
-    for (const char* k : allowed) {
-      if (v.is_string() && v.get<std::string>() == k) return k;
-      list += (list.empty() ? "" : ", ") + std::string(k);
-    }
-    fail(field, v, "must be one of " + list + note);
-  }
-
-  // An existing file named relative to the scene file's folder.
-  std::filesystem::path existing_file(const json& v, const std::string& field,
-                                      const std::filesystem::path& folder) const {
-    if (!v.is_string() || v.get<std::string>().empty())
-      fail(field, v, "must be a path (string) relative to the scene file");
-    std::filesystem::path resolved = (folder / v.get<std::string>()).lexically_normal();
-    std::error_code ec;
-    if (!std::filesystem::exists(resolved, ec))
-      fail(field, v, "no such file: " + resolved.string());
-    if (!std::filesystem::is_regular_file(resolved, ec))
-      fail(field, v, "not a regular file: " + resolved.string());
-    return resolved;
-  }
-
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-};
-
 Eigen::Matrix3d rotation_from_euler_deg(const Eigen::Vector3d& deg) {
   // R = Rz * Ry * Rx: a point is rotated about x first, then y, then z (fixed object axes).
   Eigen::Vector3d rad = deg * (M_PI / 180.0);
@@ -184,7 +40,7 @@ Eigen::Matrix3d rotation_from_euler_deg(const Eigen::Vector3d& deg) {
 const char* const kBoxForms =
     "give either min and max, or centre and half_extents (with optional rotation_deg)";
 
-Box read_min_max(const SceneReader& r, const json& j, const std::string& field) {
+Box read_min_max(const JsonReader& r, const json& j, const std::string& field) {
   const Interval coordinate = closed(-kMaxCoordinate, kMaxCoordinate);
   Eigen::Vector3d lo =
       r.vec3(r.required(j, field, "min", kBoxForms), child(field, "min"), coordinate);
@@ -201,7 +57,7 @@ Box read_min_max(const SceneReader& r, const json& j, const std::string& field) 
   return box;
 }
 
-Box read_centred(const SceneReader& r, const json& j, const std::string& field) {
+Box read_centred(const JsonReader& r, const json& j, const std::string& field) {
   if (j.contains("centre") && j.contains("center"))
     r.fail(child(field, "center"), j["center"], "an alias of centre; give only one of them");
   const char* centre_key = j.contains("center") ? "center" : "centre";
@@ -216,7 +72,7 @@ Box read_centred(const SceneReader& r, const json& j, const std::string& field) 
   return box;
 }
 
-Box read_box_geometry(const SceneReader& r, const json& j, const std::string& field) {
+Box read_box_geometry(const JsonReader& r, const json& j, const std::string& field) {
   bool axis_aligned = j.contains("min") || j.contains("max");
   for (const char* key : {"centre", "center", "half_extents", "rotation_deg"})
     if (axis_aligned && j.contains(key))
@@ -233,15 +89,14 @@ bool is_cut(const DeformerSpec& d) {
   return d.type == "peel" || d.type == "incision" || d.type == "box_cut";
 }
 
-int read_axis(const SceneReader& r, const json& j, const std::string& field, const char* key,
+int read_axis(const JsonReader& r, const json& j, const std::string& field, const char* key,
               const std::string& hint) {
   std::string axis = r.one_of(r.required(j, field, key, hint), child(field, key), {"x", "y", "z"});
   return axis[0] - 'x';
 }
 
 // `from` of peel and incision: a face of the box on another axis than `axis`.
-void read_from_face(const SceneReader& r, const json& j, const std::string& field,
-                    DeformerSpec& d) {
+void read_from_face(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
   std::string face =
       r.one_of(r.required(j, field, "from", "give a face of the box: +x, -x, +y, -y, +z, -z"),
                child(field, "from"), {"+x", "-x", "+y", "-y", "+z", "-z"});
@@ -259,13 +114,13 @@ void read_from_face(const SceneReader& r, const json& j, const std::string& fiel
 }
 
 // A length that must be > 0, any finite size.
-double positive(const SceneReader& r, const json& j, const std::string& field, const char* key,
+double positive(const JsonReader& r, const json& j, const std::string& field, const char* key,
                 const std::string& hint) {
   return r.number(r.required(j, field, key, hint), child(field, key),
                   {0.0, std::numeric_limits<double>::infinity(), true});
 }
 
-void read_peel(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+void read_peel(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
   r.check_keys(j, field, {"type", "axis", "from", "angle_deg", "thickness", "radius", "hinge"});
   d.axis = read_axis(r, j, field, "axis", "give the curl axis, one of x, y, z");
   read_from_face(r, j, field, d);
@@ -276,7 +131,7 @@ void read_peel(const SceneReader& r, const json& j, const std::string& field, De
   if (j.contains("hinge")) d.hinge = r.number(j["hinge"], child(field, "hinge"), Interval{});
 }
 
-void read_incision(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+void read_incision(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
   r.check_keys(j, field, {"type", "axis", "from", "depth", "opening"});
   d.axis = read_axis(r, j, field, "axis", "give the normal of the cut plane, one of x, y, z");
   read_from_face(r, j, field, d);
@@ -284,7 +139,7 @@ void read_incision(const SceneReader& r, const json& j, const std::string& field
   d.opening = positive(r, j, field, "opening", "give the width of the gap in object units");
 }
 
-void read_wedge(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+void read_wedge(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
   r.require_object(j, field, "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}");
   r.check_keys(j, field, {"axis", "from_deg", "angle_deg"});
   d.wedge_axis = read_axis(r, j, field, "axis", "give the wedge's axis, one of x, y, z");
@@ -295,7 +150,7 @@ void read_wedge(const SceneReader& r, const json& j, const std::string& field, D
                child(field, "angle_deg"), {0.0, 180.0, true, false});
 }
 
-void read_box_cut(const SceneReader& r, const json& j, const std::string& field, DeformerSpec& d) {
+void read_box_cut(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
   r.check_keys(j, field, {"type", "sub_min", "sub_max", "wedge"});
   if (j.contains("sub_min"))
     d.sub_min = r.vec3(j["sub_min"], child(field, "sub_min"), closed(0, 1));
@@ -316,7 +171,7 @@ void read_box_cut(const SceneReader& r, const json& j, const std::string& field,
 
 std::string describe_box(const Box& b);
 
-void read_control_points(const SceneReader& r, const json& j, const std::string& field,
+void read_control_points(const JsonReader& r, const json& j, const std::string& field,
                          const Box& box, DeformerSpec& d) {
   r.check_keys(j, field, {"type", "points", "radius", "pinned"});
   const std::string points = child(field, "points");
@@ -359,7 +214,7 @@ void read_control_points(const SceneReader& r, const json& j, const std::string&
   }
 }
 
-DeformerSpec read_one_deformer(const SceneReader& r, const json& j, const std::string& field,
+DeformerSpec read_one_deformer(const JsonReader& r, const json& j, const std::string& field,
                                const Box& box) {
   r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
   const json& type = r.required(j, field, "type", std::string("give one of ") + kDeformerTypes);
@@ -386,7 +241,7 @@ DeformerSpec read_one_deformer(const SceneReader& r, const json& j, const std::s
 }
 
 // One deformer object, or a list of them applied in order (continuous deformers only).
-void read_deformers(const SceneReader& r, const json& j, const std::string& field, BoxSpec& b) {
+void read_deformers(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
   if (!j.is_array()) {
     b.deformer = read_one_deformer(r, j, field, b.box);
     return;
@@ -408,7 +263,7 @@ void read_deformers(const SceneReader& r, const json& j, const std::string& fiel
   }
 }
 
-ImplicitSpec read_implicit(const SceneReader& r, const json& j, const std::string& field) {
+ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"type\": \"sdf\", \"resolution\": ...}");
   r.check_keys(j, field, {"type", "resolution", "band_voxels", "margin_voxels"});
   ImplicitSpec s;
@@ -435,7 +290,7 @@ ImplicitSpec read_implicit(const SceneReader& r, const json& j, const std::strin
   return s;
 }
 
-int read_deformation(const SceneReader& r, const json& j, const std::string& field) {
+int read_deformation(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"resolution\": ...}");
   r.check_keys(j, field, {"resolution"});
   BoxSpec defaults;
@@ -443,7 +298,7 @@ int read_deformation(const SceneReader& r, const json& j, const std::string& fie
   return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
 }
 
-int read_alpha(const SceneReader& r, const json& j, const std::string& field) {
+int read_alpha(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"resolution\": ...}");
   r.check_keys(j, field, {"resolution"});
   BoxSpec defaults;
@@ -452,7 +307,7 @@ int read_alpha(const SceneReader& r, const json& j, const std::string& field) {
 }
 
 // cut_mode, shell_thickness and alpha, after the deformer has been read.
-void read_cut_settings(const SceneReader& r, const json& j, const std::string& field, BoxSpec& b) {
+void read_cut_settings(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
   if (!is_cut(b.deformer)) {
     for (const char* key : {"cut_mode", "shell_thickness", "alpha"})
       if (j.contains(key))
@@ -479,7 +334,7 @@ void read_cut_settings(const SceneReader& r, const json& j, const std::string& f
   if (j.contains("alpha")) b.alpha_resolution = read_alpha(r, j["alpha"], child(field, "alpha"));
 }
 
-BoxSpec read_box(const SceneReader& r, const json& j, const std::string& field) {
+BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"min\": ..., \"max\": ..., \"deformer\": ...}");
   r.check_keys(j, field,
                {"min", "max", "centre", "center", "half_extents", "rotation_deg", "deformer",
@@ -539,7 +394,7 @@ json geometry_keys(const json& box) {
   return out;
 }
 
-void check_overlaps(const SceneReader& r, const json& boxes, const std::vector<BoxSpec>& specs) {
+void check_overlaps(const JsonReader& r, const json& boxes, const std::vector<BoxSpec>& specs) {
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t k = 0; k < i; ++k)
       if (boxes_overlap(specs[k].box, specs[i].box))
@@ -591,7 +446,7 @@ std::string gib(std::uint64_t bytes) {
   return buf;
 }
 
-void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs) {
+void check_memory_budget(const JsonReader& r, const std::vector<BoxSpec>& specs) {
   std::uint64_t grids = 0, textures = 0, alphas = 0;
   // The field to lower: the resolution with the largest texture.
   std::uint64_t largest = 0;
@@ -625,7 +480,7 @@ void check_memory_budget(const SceneReader& r, const std::vector<BoxSpec>& specs
              "; lower this resolution (the largest of them)");
 }
 
-std::vector<BoxSpec> read_boxes(const SceneReader& r, const json& j) {
+std::vector<BoxSpec> read_boxes(const JsonReader& r, const json& j) {
   const std::string allowed = "must be a list of 1 to " + std::to_string(kMaxBoxes) + " boxes";
   if (!j.is_array() || j.empty() || j.size() > static_cast<size_t>(kMaxBoxes))
     r.fail("boxes", j, allowed);
@@ -636,7 +491,7 @@ std::vector<BoxSpec> read_boxes(const SceneReader& r, const json& j) {
   return specs;
 }
 
-Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::path& folder) {
+Camera read_camera(const JsonReader& r, const json& j, const std::filesystem::path& folder) {
   if (j.is_object()) return camera_from_json(j, r.file() + ": camera");
   if (!j.is_string()) r.fail("camera", j, "must be a path (string) or a camera object");
   std::filesystem::path path = r.existing_file(j, "camera", folder);
@@ -651,7 +506,7 @@ Camera read_camera(const SceneReader& r, const json& j, const std::filesystem::p
   }
 }
 
-RenderSettings read_render(const SceneReader& r, const json& j) {
+RenderSettings read_render(const JsonReader& r, const json& j) {
   r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
   r.check_keys(j, "render",
                {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
@@ -722,7 +577,7 @@ Scene load_scene(const std::filesystem::path& path) {
 }
 
 Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& path) {
-  SceneReader r(path.string());
+  JsonReader r(path.string());
   if (!root.is_object())
     throw Error(path.string() + ": the scene = " + show(root) +
                 ": must be a JSON object with mesh, boxes, camera, render");

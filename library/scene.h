@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "library/box.h"
+#include "base/box.h"
 #include "library/camera.h"
 #include "library/textures.h"
 

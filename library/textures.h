@@ -5,9 +5,9 @@
 #include <limits>
 #include <string>
 
-#include "library/box.h"
+#include "base/box.h"
 #include "library/depth_cube.h"
-#include "library/grid.h"
+#include "base/grid.h"
 
 namespace raywarp {
 

@@ -2,7 +2,7 @@
 file(GLOB shaders ${SHADER_DIR}/*.glsl)
 list(SORT shaders)
 set(body "// Generated from shaders/*.glsl by scripts/embed_shaders.cmake. Do not edit.\n")
-string(APPEND body "#include \"library/gl/shader_sources.h\"\n\nnamespace raywarp::gl {\n")
+string(APPEND body "#include \"gl/shader_sources.h\"\n\nnamespace raywarp::gl {\n")
 string(APPEND body "const std::map<std::string, std::string>& embedded_shaders() {\n")
 string(APPEND body "  static const std::map<std::string, std::string> sources = {\n")
 foreach(path ${shaders})

@@ -1,6 +1,6 @@
 // Pass 2: ray casting of the deformed part of the mesh (Correa & Silver 2007, sections 3 and 5).
 // Everything is in the box's local frame (object units). The same algorithm, in double, is
-// raywarp::ray_cast_box in library/reference.cpp: keep the two in step.
+// raywarp::ray_cast_box in verify/reference.cpp: keep the two in step.
 //
 // Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
 // 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample

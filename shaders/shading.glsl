@@ -1,5 +1,5 @@
 // Shading shared by the raster and ray-cast passes, so the seam between them is invisible.
-// A headlight: the light comes from the eye along the ray. Must match library/reference.cpp.
+// A headlight: the light comes from the eye along the ray. Must match verify/reference.cpp.
 uniform vec3 u_albedo;         // linear RGB
 uniform vec3 u_inside_colour;  // the inside of a shell, seen through a cut
 

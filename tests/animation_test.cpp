@@ -9,11 +9,11 @@
 #include <sstream>
 
 #include "deformers/twist.h"
-#include "editor/animate.h"
-#include "library/error.h"
+#include "cli/animate.h"
+#include "base/error.h"
 #include "library/image.h"
 #include "library/mesh.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 using namespace raywarp;

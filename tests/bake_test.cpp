@@ -36,6 +36,7 @@
 #include <numbers>
 #include <random>
 
+#include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/deformer.h"
 #include "deformers/twist.h"

@@ -10,7 +10,7 @@
 #include <numbers>
 #include <random>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

@@ -8,11 +8,12 @@
 #include <cstdio>
 #include <random>
 
+#include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/textures.h"
 
 using namespace raywarp;

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "editor/pipeline.h"
+#include "cli/pipeline.h"
 #include "library/bake_cache.h"
 #include "library/scene.h"
 

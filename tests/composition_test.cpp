@@ -15,12 +15,12 @@
 #include "deformers/box_cut.h"
 #include "deformers/composed.h"
 #include "deformers/twist.h"
-#include "editor/pipeline.h"
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 using namespace raywarp;

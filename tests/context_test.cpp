@@ -2,18 +2,18 @@
 // image of the CPU reference of the same ray cast, as it does in OSMesa (tests/render_test.cpp).
 // On a machine without a GPU, EGL runs Mesa's llvmpipe through its software device or
 // surfaceless platform. One context per process: this test uses EGL only.
-#include "library/gl/context.h"
+#include "gl/context.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <sstream>
 
-#include "editor/pipeline.h"
-#include "library/error.h"
-#include "library/gl/renderer.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 using namespace raywarp;

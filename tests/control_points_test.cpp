@@ -2,6 +2,7 @@
 // Jacobian against central differences, the Newton inverse and the baked texture's residual, the
 // reproduction of an analytic twist (field and rendered image against the twist's exact ground
 // truth), and ill-posed input.
+#include "library/deformation_bake.h"
 #include "deformers/control_points.h"
 
 #include <gtest/gtest.h>
@@ -17,13 +18,13 @@
 #include <vector>
 
 #include "deformers/twist.h"
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 namespace raywarp {
@@ -457,7 +458,7 @@ gl::Context& context() {
   return *ctx;
 }
 
-// The box's textures as editor/pipeline.cpp's prepare_scene builds them, for `deformer`.
+// The box's textures as cli/pipeline.cpp's prepare_scene builds them, for `deformer`.
 BoxTextures box_textures(const BunnyScene& s, const Deformer& deformer) {
   const BoxSpec& spec = s.scene.boxes.at(0);
   BoxTextures tex;

@@ -15,7 +15,7 @@
 #include <limits>
 #include <random>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

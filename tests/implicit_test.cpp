@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "library/winding.h"
 #include "tests/mesh_fixtures.h"
 

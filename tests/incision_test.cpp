@@ -2,6 +2,7 @@
 // inverse, the analytic Jacobian against central differences, the alpha map against the gap
 // (sign, Lipschitz bound, distance by brute force), folds, the bake, the identity faces and the
 // input checks, for every normal axis and entry face.
+#include "library/deformation_bake.h"
 #include "deformers/incision.h"
 
 #include <gtest/gtest.h>
@@ -15,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

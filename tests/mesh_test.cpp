@@ -8,7 +8,7 @@
 #include <fstream>
 #include <string>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "tests/mesh_fixtures.h"
 
 namespace raywarp {

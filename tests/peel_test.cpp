@@ -3,6 +3,7 @@
 // map against the cut (sign, Lipschitz bound, distance by brute force), the folded volume against
 // its closed form, the bake, the identity faces and the input checks, for every curl axis and
 // face.
+#include "library/deformation_bake.h"
 #include "deformers/peel.h"
 
 #include <gtest/gtest.h>
@@ -17,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

@@ -1,6 +1,6 @@
 // Pareto fronts against a brute-force search; charts: size, where the markers land, colours per
 // series name, axis ranges and ticks, degenerate data, and the PNG file.
-#include "library/plot.h"
+#include "cli/plot.h"
 
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp::plot {
 namespace {

@@ -6,11 +6,11 @@
 #include <cstdio>
 #include <sstream>
 
-#include "editor/pipeline.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/pipeline.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 using namespace raywarp;

@@ -1,6 +1,6 @@
 // The CPU references: the ray cast against an analytic sphere, the rasteriser against the ray
 // cast, and the ground-truth mesh (splitting at the box faces, subdivision, forward map).
-#include "library/reference.h"
+#include "verify/reference.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <string>
 #include <utility>
 
-#include "library/error.h"
+#include "base/error.h"
 #include "tests/mesh_fixtures.h"
 
 namespace raywarp {

@@ -7,12 +7,13 @@
 #include <random>
 #include <sstream>
 
+#include "library/deformation_bake.h"
 #include "deformers/twist.h"
-#include "editor/pipeline.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/pipeline.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 using namespace raywarp;

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

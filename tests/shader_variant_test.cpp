@@ -9,10 +9,10 @@
 #include <cstdio>
 #include <string>
 
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
-#include "library/gl/shader_sources.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
+#include "gl/shader_sources.h"
 #include "tests/mesh_fixtures.h"
 
 using namespace raywarp;

@@ -2,7 +2,7 @@
 // finite, a twist of 0 degrees matches the exact ground truth, a folding bend is flagged by
 // raywarp's own warning, a scene that cannot be loaded is recorded as rejected rather than
 // stopping the study, and the report holds one row per case.
-#include "editor/stability.h"
+#include "cli/stability.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "library/gl/context.h"
+#include "gl/context.h"
 
 using namespace raywarp;
 

@@ -1,6 +1,6 @@
 // `raywarp study` on a small scale: the quick sweep of the shipped bunny twist at 64², its three
 // files, the object-space peer's subdivision, the Pareto front, and the errors on bad input.
-#include "editor/study.h"
+#include "cli/study.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "library/error.h"
-#include "library/gl/context.h"
+#include "base/error.h"
+#include "gl/context.h"
 
 using namespace raywarp;
 namespace fs = std::filesystem;

@@ -9,7 +9,7 @@
 #include <numbers>
 #include <random>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 namespace {

@@ -26,12 +26,12 @@
 #include <string>
 #include <vector>
 
-#include "editor/pipeline.h"
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 #include "tests/mesh_fixtures.h"
 

@@ -1,4 +1,4 @@
-#include "library/gl/shader_sources.h"
+#include "gl/shader_sources.h"
 
 #include <cctype>
 #include <map>
@@ -6,7 +6,7 @@
 #include <sstream>
 #include <vector>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp::gl {
 

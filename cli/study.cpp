@@ -1,4 +1,4 @@
-#include "editor/study.h"
+#include "cli/study.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,13 +12,13 @@
 #include <unordered_map>
 
 #include "deformers/box_cut.h"
-#include "editor/format.h"
-#include "editor/pipeline.h"
-#include "library/error.h"
-#include "library/gl/renderer.h"
+#include "cli/format.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/plot.h"
-#include "library/reference.h"
+#include "cli/plot.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 namespace raywarp {

@@ -7,10 +7,11 @@
 #include <string>
 #include <vector>
 
+#include "library/deformation_bake.h"
 #include "deformers/control_points.h"
 #include "deformers/deformer.h"
 #include "library/bake_cache.h"
-#include "library/gl/renderer.h"
+#include "gl/renderer.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "library/textures.h"

@@ -1,4 +1,4 @@
-#include "editor/animate.h"
+#include "cli/animate.h"
 
 #include <chrono>
 #include <cmath>
@@ -9,12 +9,12 @@
 #include <sstream>
 
 #include "deformers/twist.h"
-#include "editor/format.h"
-#include "editor/pipeline.h"
-#include "library/error.h"
+#include "cli/format.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
 #include "library/gif.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/scene.h"
 
 namespace raywarp {

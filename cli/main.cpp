@@ -8,13 +8,13 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "editor/animate.h"
-#include "editor/pipeline.h"
-#include "editor/stability.h"
-#include "editor/study.h"
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/renderer.h"
+#include "cli/animate.h"
+#include "cli/pipeline.h"
+#include "cli/stability.h"
+#include "cli/study.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
 #include "library/image.h"
 #include "library/scene.h"
 

@@ -1,4 +1,4 @@
-#include "editor/stability.h"
+#include "cli/stability.h"
 
 #include <algorithm>
 #include <cctype>
@@ -11,12 +11,12 @@
 #include <sstream>
 #include <thread>
 
-#include "editor/format.h"
-#include "editor/pipeline.h"
-#include "library/error.h"
-#include "library/gl/renderer.h"
+#include "cli/format.h"
+#include "cli/pipeline.h"
+#include "base/error.h"
+#include "gl/renderer.h"
 #include "library/image.h"
-#include "library/reference.h"
+#include "verify/reference.h"
 #include "library/scene.h"
 
 namespace raywarp {

@@ -1,4 +1,4 @@
-#include "library/reference.h"
+#include "verify/reference.h"
 
 #include <algorithm>
 #include <array>
@@ -7,7 +7,7 @@
 #include <limits>
 #include <thread>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp {
 

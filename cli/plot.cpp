@@ -1,4 +1,4 @@
-#include "library/plot.h"
+#include "cli/plot.h"
 
 #include <stb/stb_easy_font.h>
 
@@ -11,7 +11,7 @@
 #include <map>
 #include <tuple>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp::plot {
 

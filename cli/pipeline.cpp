@@ -1,4 +1,5 @@
-#include "editor/pipeline.h"
+#include "library/deformation_bake.h"
+#include "cli/pipeline.h"
 
 #include <algorithm>
 #include <chrono>
@@ -15,10 +16,10 @@
 #include "deformers/incision.h"
 #include "deformers/peel.h"
 #include "deformers/twist.h"
-#include "editor/format.h"
+#include "cli/format.h"
 #include "library/bake_cache.h"
 #include "library/depth_cube.h"
-#include "library/error.h"
+#include "base/error.h"
 #include "library/implicit.h"
 
 namespace raywarp {

@@ -1,4 +1,4 @@
-#include "library/gl/renderer.h"
+#include "gl/renderer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,9 +8,9 @@
 #include <map>
 #include <string>
 
-#include "library/error.h"
-#include "library/gl/gl_api.h"
-#include "library/gl/shader_sources.h"
+#include "base/error.h"
+#include "gl/gl_api.h"
+#include "gl/shader_sources.h"
 
 namespace raywarp::gl {
 

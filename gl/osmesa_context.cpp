@@ -3,9 +3,9 @@
 
 #include <vector>
 
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/gl_api.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/gl_api.h"
 
 namespace raywarp::gl {
 

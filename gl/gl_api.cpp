@@ -1,8 +1,8 @@
-#include "library/gl/gl_api.h"
+#include "gl/gl_api.h"
 
 #include <string>
 
-#include "library/error.h"
+#include "base/error.h"
 
 namespace raywarp::gl {
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "library/error.h"
-#include "library/gl/context.h"
-#include "library/gl/gl_api.h"
+#include "base/error.h"
+#include "gl/context.h"
+#include "gl/gl_api.h"
 
 namespace raywarp::gl {
 
