@@ -1,4 +1,4 @@
-// A deformation box: centre, half extents and a rotation, in object space.
+// A deformation box: centre, half extents and a rotation, in object space (docs/conventions.md).
 // Its local frame has the origin at the box centre and axes along the box edges (the columns
 // of `rotation`), in object units; every deformer and texture of the box lives in that frame,
 // where the box is [-half_extents, +half_extents].

@@ -7,7 +7,7 @@
 // index = i + dims.x * (j + dims.y * k).
 // sample() is trilinear with clamp-to-edge, exactly what GL_LINEAR + GL_CLAMP_TO_EDGE computes
 // (in double; a float grid gives a 1-vector: grid.sample(p).value()),
-// so the CPU reference renderer and the shader read the same function.
+// so the CPU reference renderer and the shader read the same function (docs/conventions.md).
 #pragma once
 #include <Eigen/Core>
 #include <algorithm>

@@ -43,13 +43,20 @@ class Interrupter {
   // Any thread: records progress in `stage` (calling the report when due), then poll().
   void poll(const char* stage, double fraction) {
     if (report_) {
-      std::unique_lock lock(mutex_, std::try_to_lock);
-      if (lock.owns_lock()) {
-        const auto now = std::chrono::steady_clock::now();
-        if (stage_ != stage || std::chrono::duration<double>(now - last_).count() >= interval_) {
-          stage_ = stage;
+      const std::lock_guard lock(mutex_);
+      const auto now = std::chrono::steady_clock::now();
+      fraction = fraction < 0.0 ? 0.0 : fraction > 1.0 ? 1.0 : fraction;
+      if (stage_ != stage) {
+        stage_ = stage;
+        fraction_ = fraction;
+        last_ = now;
+        report_(stage_, fraction_);
+      } else {
+        // Threads poll out of order: within a stage, the fraction reported never goes back.
+        fraction_ = fraction > fraction_ ? fraction : fraction_;
+        if (std::chrono::duration<double>(now - last_).count() >= interval_) {
           last_ = now;
-          report_(stage_, fraction < 0.0 ? 0.0 : fraction > 1.0 ? 1.0 : fraction);
+          report_(stage_, fraction_);
         }
       }
     }
@@ -65,6 +72,7 @@ class Interrupter {
   std::atomic<long> polls_{0};
   std::mutex mutex_;
   std::string stage_;
+  double fraction_ = 0.0;
   std::chrono::steady_clock::time_point last_{};
 };
 

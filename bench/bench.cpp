@@ -22,7 +22,9 @@
 #include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
-#include "cli/format.h"
+#include "base/atomic_file.h"
+#include "base/error.h"
+#include "base/format.h"
 #include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
@@ -296,13 +298,10 @@ int main(int argc, char** argv) {
       text = text.substr(0, b) + block + text.substr(e + end.size());
     else
       text = "# Bake and frame times\n\n" + block + "\n";
-    const std::string tmp = out + ".tmp";
-    std::ofstream f(tmp);
-    f << text;
-    f.close();
-    if (!f || std::rename(tmp.c_str(), out.c_str()) != 0) {
-      std::remove(tmp.c_str());
-      std::cerr << "raywarp_bench: cannot write " << out << "\n";
+    try {
+      write_file_atomic(out, text);
+    } catch (const Error& e) {
+      std::cerr << "raywarp_bench: " << e.what() << "\n";
       return 2;
     }
   }

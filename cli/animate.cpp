@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "deformers/twist.h"
-#include "cli/format.h"
+#include "base/format.h"
 #include "cli/pipeline.h"
 #include "base/error.h"
 #include "library/gif.h"
@@ -223,7 +223,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       renderer.set_mesh(prepared.mesh);
       renderer.set_boxes(prepared.textures());
       for (const auto& b : prepared.boxes)
-        for (const auto& w : b.warnings) log << "frame " << f << ": warning: " << w << "\n";
+        for (const auto& w : b.report.warning_messages()) log << "frame " << f << ": warning: " << w << "\n";
       what = "re-baked (" + std::to_string(prepared.bakes) +
              " textures baked, the rest from the "
              "cache) in " +

@@ -187,7 +187,7 @@ int run_study_cli(StudyCli opt) {
   if (opt.scenes.empty()) throw Error("study: give at least one scene file (or --stability)");
   if (opt.out.empty())
     throw Error(
-        "study: --out DIR: required (where study.csv, pareto.png and "
+        "study: --out DIR: required (where study.csv, pareto.svg and "
         "report.md go)");
   StudyOptions so;
   for (const auto& s : opt.scenes) so.scenes.emplace_back(s);
@@ -287,7 +287,7 @@ int main(int argc, char** argv) {
   auto* study = app.add_subcommand(
       "study",
       "Measure error against frame time of every sampling method over a sweep of settings, "
-      "against each scene's exact ground truth; writes DIR/study.csv, DIR/pareto.png and "
+      "against each scene's exact ground truth; writes DIR/study.csv, DIR/pareto.svg and "
       "DIR/report.md. With --stability: the extreme cases, written to docs/stability.md");
   study->add_option("scenes", sopt.scenes,
                     "Scene files (default with --stability: examples/extreme/*.json)");

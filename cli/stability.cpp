@@ -11,7 +11,7 @@
 #include <sstream>
 #include <thread>
 
-#include "cli/format.h"
+#include "base/format.h"
 #include "cli/pipeline.h"
 #include "base/error.h"
 #include "gl/renderer.h"
@@ -65,7 +65,7 @@ std::map<std::string, std::string> read_stresses(const std::filesystem::path& re
 }
 
 bool textures_finite(const PreparedScene& prepared) {
-  for (const PreparedBox& box : prepared.boxes) {
+  for (const BakedBox& box : prepared.boxes) {
     for (float v : box.textures.sdf.grid.data)
       if (!std::isfinite(v)) return false;
     for (const DepthMap& m : box.textures.depth_cube.maps)
@@ -92,7 +92,7 @@ std::vector<std::string> collect_warnings(const PreparedScene& prepared, const s
   std::vector<std::string> out, plain;
   const bool several = prepared.boxes.size() > 1;
   for (size_t i = 0; i < prepared.boxes.size(); ++i)
-    for (const std::string& w : prepared.boxes[i].warnings) {
+    for (const std::string& w : prepared.boxes[i].report.warning_messages()) {
       plain.push_back(w);
       out.push_back((several ? "box " + std::to_string(i) + ": " : std::string()) + w);
     }
@@ -150,7 +150,7 @@ void measure(StabilityCase& c, int size, int frames) {
   bool have_truth = true;
   Mesh truth_mesh = prepared.mesh;
   if (!prepared.boxes.empty()) {
-    const PreparedBox& box = prepared.boxes[0];
+    const BakedBox& box = prepared.boxes[0];
     if (box.deformer->has_cut()) {
       have_truth = false;
     } else {

@@ -33,7 +33,7 @@ struct StabilityCase {
   double mean_depth_error = NAN;  // object units, over pixels covered in both
   double frame_ms = 0;            // median of the timed frames (after one warm-up frame)
   double worst_frame_ms = 0;      // slowest timed frame
-  // PreparedBox::warnings of every box ("box i: " in front when there are several), and the
+  // BakedBox::warnings of every box ("box i: " in front when there are several), and the
   // pipeline's log lines that say "warning" and are not one of those.
   std::vector<std::string> warnings;
   // "pass": finite, error within the thresholds (or no exact ground truth) and no warning;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <ostream>
@@ -11,15 +12,15 @@
 #include <thread>
 #include <unordered_map>
 
-#include "deformers/box_cut.h"
-#include "cli/format.h"
-#include "cli/pipeline.h"
 #include "base/error.h"
+#include "base/format.h"
+#include "cli/chart.h"
+#include "cli/pipeline.h"
+#include "deformers/box_cut.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "cli/plot.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 namespace raywarp {
 
@@ -175,7 +176,7 @@ Mesh object_space_mesh(const PreparedScene& prepared, int levels) {
   Mesh m = subdivide(prepared.mesh, levels);
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     Eigen::Vector3d p = m.V.row(i).transpose();
-    for (const PreparedBox& b : prepared.boxes) {
+    for (const BakedBox& b : prepared.boxes) {
       const Box& box = b.textures.box;
       const Eigen::Vector3d q = box.to_local(p);
       if (box.contains_local(q)) {
@@ -200,10 +201,10 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
   Truth t;
   t.diagonal = mesh_bounds(prepared.mesh).diagonal().norm();
   bool any_cut = false;
-  for (const PreparedBox& b : prepared.boxes) any_cut = any_cut || b.deformer->has_cut();
+  for (const BakedBox& b : prepared.boxes) any_cut = any_cut || b.deformer->has_cut();
   if (!any_cut) {
     Mesh m = prepared.mesh;
-    for (const PreparedBox& b : prepared.boxes) {
+    for (const BakedBox& b : prepared.boxes) {
       auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
       m = ground_truth_mesh(m, b.textures.box, F, 0.25 * implicit_spacing(b.textures));
     }
@@ -215,7 +216,7 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
     return t;
   }
   if (prepared.boxes.size() == 1) {
-    const PreparedBox& b = prepared.boxes[0];
+    const BakedBox& b = prepared.boxes[0];
     const BoxSpec& spec = scene.boxes[0];
     if (const auto* cut = dynamic_cast<const BoxCut*>(b.deformer.get());
         cut && spec.cut_mode != CutMode::ThickShell) {
@@ -349,42 +350,48 @@ void write_csv(const std::filesystem::path& path, const std::vector<StudyRun>& r
       << ',' << r.band_voxels << ',' << r.texture_bits << ',' << r.subdivision_levels << ','
       << r.triangles << ',' << r.ms << ',' << r.iou << ',' << r.mean_depth_error << ','
       << r.max_depth_error << ',' << r.fraction_over << ',' << r.fraction_missed << ','
-      << r.memory_bytes << '\n';
+      << r.fraction_missed_vs_bounded << ',' << r.memory_bytes << '\n';
   const std::string text = o.str();
   write_file_atomic(path.string(), text.data(), text.size());
 }
 
 const char* kMethods[] = {"linear", "threshold", "jacobian", "bounded", "object-space"};
 
+// The floor of the chart's error axis: runs with no pixel over are drawn there.
+constexpr double kChartFloor = 1e-5;
+
+// Error against frame time, one log-log panel per scene, one colour per method, the scene's
+// Pareto front (study_front) in black.
 void write_chart(const std::filesystem::path& path, const std::vector<std::string>& scenes,
-                 const std::vector<StudyRun>& runs, double floor) {
-  std::vector<plot::Panel> panels;
+                 const std::vector<StudyRun>& runs) {
+  chart::Chart c;
+  c.title = "Error against frame time";
+  c.columns = scenes.size() > 1 ? 2 : 1;
+  c.panel_width = 560;
+  c.panel_height = 400;
   for (const std::string& scene : scenes) {
-    plot::Panel panel;
+    chart::Panel panel;
     panel.title = scene;
     panel.x_label = "frame ms (median)";
     panel.y_label = "pixels over 1 % of diag";
-    panel.y_floor = floor;
+    panel.y_floor = kChartFloor;
     std::vector<StudyRun> mine;
     for (const StudyRun& r : runs)
       if (r.scene == scene) mine.push_back(r);
     for (const char* method : kMethods) {
-      plot::Series s;
+      chart::Series s;
       s.name = method;
-      s.connect = false;  // a sweep over several settings, not a curve
       for (const StudyRun& r : mine)
         if (r.method == method) {
           s.x.push_back(r.ms);
-          s.y.push_back(std::max(r.fraction_over, floor));
+          s.y.push_back(r.fraction_over);  // 0 is drawn on the floor
         }
       if (!s.x.empty()) panel.series.push_back(s);
     }
-    for (size_t i : study_front(mine))
-      panel.front.emplace_back(mine[i].ms, std::max(mine[i].fraction_over, floor));
-    panels.push_back(panel);
+    for (size_t i : study_front(mine)) panel.front.emplace_back(mine[i].ms, mine[i].fraction_over);
+    c.panels.push_back(panel);
   }
-  const int columns = panels.size() > 1 ? 2 : 1;
-  write_png(path.string(), plot::render_chart(panels, columns, 560, 400));
+  chart::write_svg(path.string(), c);
 }
 
 std::string mib(size_t bytes) { return fmt("%.2f", bytes / double(1 << 20)); }
@@ -398,7 +405,87 @@ std::vector<size_t> study_front(const std::vector<StudyRun>& runs) {
     x.push_back(r.ms);
     y.push_back(r.fraction_over);
   }
-  return plot::pareto_front(x, y);
+  return chart::pareto_front(x, y);
+}
+
+namespace {
+
+// The records of a CSV text, as csv_field writes them: a field holding a comma, a quote or a
+// newline is quoted, a quote inside doubled; an unquoted newline ends a record.
+std::vector<std::vector<std::string>> parse_csv(const std::string& text) {
+  std::vector<std::vector<std::string>> records;
+  std::vector<std::string> record;
+  std::string field;
+  bool quoted = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (quoted) {
+      if (c != '"')
+        field += c;
+      else if (i + 1 < text.size() && text[i + 1] == '"')
+        field += '"', ++i;
+      else
+        quoted = false;
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',' || c == '\n') {
+      record.push_back(std::move(field));
+      field.clear();
+      if (c == '\n') records.push_back(std::move(record)), record.clear();
+    } else if (c != '\r') {
+      field += c;
+    }
+  }
+  if (!field.empty() || !record.empty())
+    records.push_back(std::move(record)), records.back().push_back(field);
+  return records;
+}
+
+}  // namespace
+
+void write_study_chart_from_csv(const std::filesystem::path& csv,
+                                const std::filesystem::path& svg) {
+  std::ifstream in(csv, std::ios::binary);
+  if (!in) throw Error(csv.string() + ": cannot read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::vector<std::vector<std::string>> records = parse_csv(text.str());
+  if (records.empty()) throw Error(csv.string() + ": empty, expected study.csv's header");
+  const std::vector<std::string>& header = records[0];
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end())
+      throw Error(csv.string() + ": no column '" + name + "' in the header (not a study.csv?)");
+    return static_cast<size_t>(it - header.begin());
+  };
+  const size_t scene = column("scene"), method = column("method"), ms = column("ms"),
+               over = column("fraction_over");
+  const size_t needed = std::max({scene, method, ms, over}) + 1;
+  std::vector<std::string> scenes;
+  std::vector<StudyRun> runs;
+  for (size_t i = 1; i < records.size(); ++i) {
+    const std::vector<std::string>& f = records[i];
+    if (f.size() == 1 && f[0].empty()) continue;  // a blank line
+    const std::string where = csv.string() + ": record " + std::to_string(i + 1);
+    if (f.size() < needed)
+      throw Error(where + ": " + std::to_string(f.size()) + " fields, expected at least " +
+                  std::to_string(needed));
+    auto number = [&](size_t k) {
+      char* end = nullptr;
+      const double v = std::strtod(f[k].c_str(), &end);
+      if (f[k].empty() || *end != '\0')
+        throw Error(where + ": " + header[k] + " '" + f[k] + "': not a number");
+      return v;
+    };
+    StudyRun r;
+    r.scene = f[scene];
+    r.method = f[method];
+    r.ms = number(ms);
+    r.fraction_over = number(over);
+    if (std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end()) scenes.push_back(r.scene);
+    runs.push_back(r);
+  }
+  write_chart(svg, scenes, runs);
 }
 
 namespace {
@@ -595,8 +682,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
 
   // Files.
   write_csv(options.out / "study.csv", runs);
-  const double floor = 1e-5;
-  write_chart(options.out / "pareto.png", names, runs, floor);
+  write_chart(options.out / "pareto.svg", names, runs);
 
   std::ostringstream md;
   md << "# Error against frame time\n\n"
@@ -621,8 +707,8 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         "the box by the exact forward map, as a vertex shader would; it cannot show a cut, so "
         "it runs on continuous deformations only. `bounded` runs with max_steps raised to "
      << kBoundedMaxSteps << ".\n\n";
-  md << "![error against frame time](pareto.png)\n\n";
-  md << "*pareto.png: fraction of pixels over 1 % of the diagonal (log; " << floor
+  md << "![error against frame time](pareto.svg)\n\n";
+  md << "*pareto.svg: fraction of pixels over 1 % of the diagonal (log; " << kChartFloor
      << " = none over) against frame ms (log), one colour per method, the Pareto front in "
         "black.*"
         "\n\n";
@@ -764,7 +850,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
   const std::string text = md.str();
   write_file_atomic((options.out / "report.md").string(), text.data(), text.size());
   progress << "wrote " << (options.out / "study.csv").string() << ", "
-           << (options.out / "pareto.png").string() << " and "
+           << (options.out / "pareto.svg").string() << " and "
            << (options.out / "report.md").string() << " (" << fmt("%.0f", elapsed()) << " s)\n";
   return runs;
 }

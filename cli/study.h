@@ -3,9 +3,10 @@
 // tracer's epsilon and band), and the object-space peer (the forward map applied to the vertices
 // of the uniformly subdivided mesh, rasterised: what a vertex shader does), each rendered,
 // timed (median of frames after a warm-up) and measured against the scene's exact ground truth.
-// Writes DIR/study.csv (one row per run), DIR/pareto.png (error against ms per scene, one curve
-// per method, the Pareto front marked) and DIR/report.md (the tables, the recommended setting per
-// scene, the speed and memory goals at 512², how the numbers were taken, the machine).
+// Writes DIR/study.csv (one row per run), DIR/pareto.svg (error against ms per scene, one colour
+// per method, the Pareto front marked; cli/chart.h) and DIR/report.md (the tables, the
+// recommended setting per scene, the speed and memory goals at 512², how the numbers were taken,
+// the machine).
 #pragma once
 #include <cstddef>
 #include <filesystem>
@@ -17,7 +18,7 @@ namespace raywarp {
 
 struct StudyOptions {
   std::vector<std::filesystem::path> scenes;
-  std::filesystem::path out;  // folder for study.csv, pareto.png, report.md
+  std::filesystem::path out;  // folder for study.csv, pareto.svg, report.md
   int size = 256;             // image side of the sweep
   int frames = 5;             // timed frames per run (median), after one warm-up frame
   int goal_size = 512;        // image side of the speed goals (each scene at its own settings)
@@ -52,5 +53,10 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
 // The runs of one scene that no other run beats in both frame time and fraction over (ties on
 // both keep the first), ordered by frame time.
 std::vector<size_t> study_front(const std::vector<StudyRun>& runs);
+
+// Draws the chart run_study writes (pareto.svg) from a study.csv written earlier, without
+// rerunning the study: it reads the scene, method, ms and fraction_over columns (found by name
+// in the header). Throws Error naming the file and record if one is missing or not a number.
+void write_study_chart_from_csv(const std::filesystem::path& csv, const std::filesystem::path& svg);
 
 }  // namespace raywarp

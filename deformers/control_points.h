@@ -1,5 +1,5 @@
 // Control-point deformer: a smooth displacement field through user-placed source -> target pairs
-// (the "hand-made" deformations of DESIGN's users), interpolated with radial basis functions.
+// (hand-made deformations: a user moves mesh points), interpolated with radial basis functions.
 //
 // In the box's local frame (box [-h, h], object units), with n pairs (s_i, t_i), d_i = t_i - s_i
 // and L = 2 |h| (the box diagonal), inside the box

@@ -40,7 +40,7 @@ class Deformer {
   // branch the deformer documents. Finite for every finite input.
   virtual Eigen::Vector3d inverse(const Eigen::Vector3d& p_def) const = 0;
   // Whether F is the identity on each face of the box, in the order -x, +x, -y, +y, -z, +z.
-  // Where the mesh crosses a face that is not, the surface tears (DESIGN "Seams").
+  // Where the mesh crosses a face that is not, the surface tears (docs/conventions.md#seams).
   virtual std::array<bool, 6> identity_faces() const = 0;
 
   // Cuts (Correa & Silver 2007, section 5). A cut deformer separates material along a surface

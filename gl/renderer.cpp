@@ -16,46 +16,6 @@ namespace raywarp::gl {
 
 namespace {
 
-constexpr const char* kFragmentDefine = "#define RAYWARP_FRAGMENT\n";
-
-GLuint compile(GLenum kind, const std::string& name, const std::string& defines) {
-  std::string text =
-      assemble_shader(name, defines + (kind == GL_FRAGMENT_SHADER ? kFragmentDefine : ""));
-  GLuint shader = glCreateShader(kind);
-  const char* src = text.c_str();
-  glShaderSource(shader, 1, &src, nullptr);
-  glCompileShader(shader);
-  GLint ok = 0;
-  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-  if (!ok) {
-    char log[4096];
-    glGetShaderInfoLog(shader, sizeof log, nullptr, log);
-    glDeleteShader(shader);
-    throw Error("shader " + name + " does not compile:\n" + log);
-  }
-  return shader;
-}
-
-GLuint link(const std::string& vert, const std::string& frag, const std::string& defines) {
-  GLuint vs = compile(GL_VERTEX_SHADER, vert, defines),
-         fs = compile(GL_FRAGMENT_SHADER, frag, defines);
-  GLuint program = glCreateProgram();
-  glAttachShader(program, vs);
-  glAttachShader(program, fs);
-  glLinkProgram(program);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(program, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    char log[4096];
-    glGetProgramInfoLog(program, sizeof log, nullptr, log);
-    glDeleteProgram(program);
-    throw Error("shaders " + vert + " + " + frag + " do not link:\n" + log);
-  }
-  return program;
-}
-
 Eigen::Matrix4f to_float(const Eigen::Matrix4d& m) { return m.cast<float>(); }
 
 struct Uniforms {
@@ -124,9 +84,32 @@ GLuint upload_depth_cube(const DepthCube& cube, GLenum internal) {
 
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
-  GLuint sdf = 0, deformation = 0, alpha = 0, bricks = 0, sdf_bricks = 0, depth = 0;
+  GLuint textures[kTextureUnitCount] = {};  // by TextureUnit; 0: the box has none there
   size_t bytes = 0;
+  GLuint& texture(TextureUnit u) { return textures[static_cast<size_t>(u)]; }
 };
+
+// The scene's sampling method's feature, for a box that is not sphere traced: "bounded" is only
+// uses_bounded's to decide, and a box it does not apply to (or an unknown name) is sampled
+// linearly.
+Feature sampling_feature(const std::string& sampling) {
+  for (const FeatureInfo& f : kFeatures)
+    if (f.setting && f.feature != Feature::SamplingBounded && sampling == f.setting)
+      return f.feature;
+  return Feature::SamplingLinear;
+}
+
+Feature cut_feature(CutMode mode) {
+  switch (mode) {
+    case CutMode::Hollow:
+      return Feature::CutHollow;
+    case CutMode::Solid:
+      return Feature::CutSolid;
+    case CutMode::ThickShell:
+      return Feature::CutThick;
+  }
+  throw Error("unknown cut mode " + std::to_string(static_cast<int>(mode)));
+}
 
 // Copies the mappings of a grid, not its texels.
 template <class T>
@@ -139,7 +122,7 @@ void copy_mapping(Grid3<T>& to, const Grid3<T>& from) {
 }  // namespace
 
 bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
-  if (settings.sampling != "bounded" || b.has_cut || b.moves_nothing) return false;
+  if (!traces_bounded(settings.sampling, b.has_cut, b.moves_nothing)) return false;
   if (b.step_bounds.empty())
     throw Error("render.sampling = \"bounded\" needs the box's step bounds (bake_step_bounds)");
   if (!b.texture_map.isIdentity(0.0))
@@ -149,34 +132,32 @@ bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
   return true;
 }
 
-std::string raycast_defines(const BoxTextures& b, const RenderSettings& settings) {
-  std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(Renderer::kMaxBoxes) + "\n";
-  int cut = 0;
-  if (b.has_cut) cut = b.cut_mode == CutMode::Hollow ? 1 : b.cut_mode == CutMode::Solid ? 2 : 3;
-  defines += "#define RAYWARP_CUT " + std::to_string(cut) + "\n";
+Variant raycast_variant(const BoxTextures& b, const RenderSettings& settings) {
+  Variant v;
+  if (b.has_cut) v.add(Feature::Cut).add(cut_feature(b.cut_mode));
   if (b.moves_nothing)
-    defines += "#define RAYWARP_MOVES_NOTHING\n";
+    v.add(Feature::MovesNothing);
   else if (!b.texture_map.isIdentity(0.0))
-    defines += "#define RAYWARP_TEXTURE_MAP\n";
+    v.add(Feature::TextureMap);
   const bool bounded = uses_bounded(b, settings);
-  if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping))
-    defines += "#define RAYWARP_SKIP\n";
-  const int sampling = bounded                            ? 3
-                       : settings.sampling == "threshold" ? 1
-                       : settings.sampling == "jacobian"  ? 2
-                                                          : 0;
-  defines += "#define RAYWARP_SAMPLING " + std::to_string(sampling) + "\n";
-  defines += "#define RAYWARP_IMPLICIT " + std::to_string(b.uses_depth_cube ? 1 : 0) + "\n";
-  return defines;
+  if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping)) v.add(Feature::Skip);
+  v.add(bounded ? Feature::SamplingBounded : sampling_feature(settings.sampling));
+  if (b.uses_depth_cube) v.add(Feature::DepthCube);
+  return v;
+}
+
+std::string raycast_defines(const BoxTextures& b, const RenderSettings& settings) {
+  return raycast_variant(b, settings).defines();
 }
 
 std::string raycast_fragment_source(const BoxTextures& b, const RenderSettings& settings) {
-  return assemble_shader("raycast.frag.glsl", raycast_defines(b, settings) + kFragmentDefine);
+  return assemble_shader("raycast.frag.glsl",
+                         raycast_defines(b, settings) + stage_defines(GL_FRAGMENT_SHADER));
 }
 
 struct Renderer::Impl {
   GLuint raster = 0;
-  std::map<std::string, GLuint> raycast;  // by variant defines
+  std::map<unsigned long, GLuint> raycast;  // by Variant::key
   GLuint mesh_vao = 0, mesh_vbo[2] = {0, 0}, mesh_ebo = 0;
   GLsizei mesh_indices = 0;
   GLuint cube_vao = 0, cube_vbo = 0, cube_ebo = 0;
@@ -185,14 +166,9 @@ struct Renderer::Impl {
   int fbo_w = 0, fbo_h = 0;
 
   void release_boxes() {
-    for (auto& b : boxes) {
-      if (b.sdf) glDeleteTextures(1, &b.sdf);
-      if (b.depth) glDeleteTextures(1, &b.depth);
-      glDeleteTextures(1, &b.deformation);
-      if (b.alpha) glDeleteTextures(1, &b.alpha);
-      if (b.bricks) glDeleteTextures(1, &b.bricks);
-      if (b.sdf_bricks) glDeleteTextures(1, &b.sdf_bricks);
-    }
+    for (auto& b : boxes)
+      for (GLuint& t : b.textures)
+        if (t) glDeleteTextures(1, &t);
     boxes.clear();
   }
 
@@ -229,15 +205,17 @@ struct Renderer::Impl {
     fbo_h = h;
   }
 
-  // Whether a box is sphere traced: "bounded" applies to continuous deformations (a cut's D
-  // jumps, so no Lipschitz bound holds across it); it needs the box's step bounds.
-  // The ray-cast program of a box's variant: only the code its features need.
-  GLuint raycast_program(const BoxTextures& b, const RenderSettings& settings) {
-    const std::string defines = raycast_defines(b, settings);
-    auto found = raycast.find(defines);
+  // The ray-cast program of a box's variant: only the code its features need. Its samplers read
+  // the units of kTextureUnits.
+  GLuint raycast_program(const Variant& variant) {
+    auto found = raycast.find(variant.key());
     if (found != raycast.end()) return found->second;
-    GLuint program = link("raycast.vert.glsl", "raycast.frag.glsl", defines);
-    raycast.emplace(defines, program);
+    GLuint program = link_program(ShaderFiles::embedded(), "raycast.vert.glsl", "raycast.frag.glsl",
+                                  variant.defines());
+    glUseProgram(program);
+    for (const TextureUnitInfo& t : kTextureUnits)  // -1 (ignored): the variant reads none there
+      glUniform1i(glGetUniformLocation(program, t.sampler), unit_number(t.unit));
+    raycast.emplace(variant.key(), program);
     return program;
   }
 
@@ -255,7 +233,8 @@ struct Renderer::Impl {
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
   const std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
-  impl_->raster = link("raster.vert.glsl", "raster.frag.glsl", defines);
+  impl_->raster =
+      link_program(ShaderFiles::embedded(), "raster.vert.glsl", "raster.frag.glsl", defines);
   // The unit cube [0, 1]^3, scaled onto each box's ray-cast region by the vertex shader.
   const float corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
@@ -278,7 +257,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 Renderer::~Renderer() {
   impl_->release_boxes();
   glDeleteProgram(impl_->raster);
-  for (auto& [defines, program] : impl_->raycast) glDeleteProgram(program);
+  for (auto& [key, program] : impl_->raycast) glDeleteProgram(program);
   GLuint vaos[2] = {impl_->mesh_vao, impl_->cube_vao};
   glDeleteVertexArrays(2, vaos);
   GLuint buffers[5] = {impl_->mesh_vbo[0], impl_->mesh_vbo[1], impl_->mesh_ebo, impl_->cube_vbo,
@@ -360,14 +339,15 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
         m = b.depth_cube.maps[k];
         m.depth.clear();
       }
-      gpu.depth = upload_depth_cube(b.depth_cube, r_format);
+      gpu.texture(TextureUnit::DepthCube) = upload_depth_cube(b.depth_cube, r_format);
       gpu.bytes = b.depth_cube.texture_bytes(static_cast<int>(channel_bytes));
     } else {
-      gpu.sdf = upload_3d(r_format, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
+      gpu.texture(TextureUnit::Sdf) =
+          upload_3d(r_format, GL_RED, b.sdf.grid.dims, b.sdf.grid.data.data());
       gpu.bytes = b.sdf.grid.size() * channel_bytes;
     }
     if (!b.moves_nothing) {
-      gpu.deformation =
+      gpu.texture(TextureUnit::Deformation) =
           upload_3d(b.half_precision ? GL_RGBA16F : GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
                     reinterpret_cast<const float*>(b.deformation.grid.data.data()));
       gpu.bytes += b.deformation.grid.size() * 4 * channel_bytes;
@@ -375,7 +355,8 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
     if (b.has_cut) {
       if (b.alpha.grid.size() == 0) throw Error("a cut box has no alpha map");
       copy_mapping(d.alpha.grid, b.alpha.grid);
-      gpu.alpha = upload_3d(r_format, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
+      gpu.texture(TextureUnit::Alpha) =
+          upload_3d(r_format, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
       gpu.bytes += b.alpha.grid.size() * channel_bytes;
     }
     if (!b.step_bounds.empty()) {
@@ -387,8 +368,8 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
         gpu.bytes += g.size() * 4;
         return tex;
       };
-      gpu.bricks = upload_bricks(b.step_bounds.bricks);
-      gpu.sdf_bricks = upload_bricks(b.step_bounds.sdf_bricks);
+      gpu.texture(TextureUnit::Bricks) = upload_bricks(b.step_bounds.bricks);
+      gpu.texture(TextureUnit::SdfBricks) = upload_bricks(b.step_bounds.sdf_bricks);
       d.step_bounds = b.step_bounds;  // the mappings; the texels stay (a few KiB)
     }
     impl_->boxes.push_back(gpu);
@@ -406,15 +387,12 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   auto& m = *impl_;
   m.ensure_framebuffer(width, height);
   // Compile the boxes' shader variants first, so that the frame time is the frame's.
-  for (const auto& b : m.boxes) m.raycast_program(b.data, settings);
+  for (const auto& b : m.boxes) m.raycast_program(raycast_variant(b.data, settings));
   glFinish();
   auto start = std::chrono::steady_clock::now();
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
   glViewport(0, 0, width, height);
-  auto encode = [](double c) {
-    c = std::clamp(c, 0.0, 1.0);
-    return float(c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055);
-  };
+  auto encode = [](double c) { return float(srgb_encode(c)); };
   const float background[4] = {encode(settings.background.x()), encode(settings.background.y()),
                                encode(settings.background.z()), 1.0f};
   const float far_depth[4] = {std::numeric_limits<float>::infinity(), 0, 0, 0};
@@ -456,16 +434,14 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   glCullFace(GL_FRONT);
   glBindVertexArray(m.cube_vao);
   for (const auto& b : m.boxes) {
-    const GLuint program = m.raycast_program(b.data, settings);
+    const Variant variant = raycast_variant(b.data, settings);
+    const GLuint program = m.raycast_program(variant);
     Uniforms rc{program};
     glUseProgram(program);
     m.set_camera(rc, camera, width, height);
     rc.vec3("u_albedo", settings.colour);
     rc.vec3("u_inside_colour", settings.inside_colour);
     rc.vec3("u_cut_colour", settings.cut_colour);
-    rc.i1("u_sdf", 0);
-    rc.i1("u_deformation", 1);
-    rc.i1("u_alpha", 2);
     rc.i1("u_max_steps", settings.max_steps);
     rc.i1("u_refine_steps", settings.refine_steps);
     const auto& sdf = b.data.sdf.grid;
@@ -496,24 +472,17 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.f1("u_threshold", settings.threshold_voxels * voxel);
     rc.f1("u_fine_factor", settings.fine_factor);
     rc.f1("u_seam", kSeamVoxels * voxel);
-    if (uses_bounded(b.data, settings)) {
+    if (variant.has(Feature::SamplingBounded)) {
       const StepBounds& sb = b.data.step_bounds;
-      rc.i1("u_bricks", 3);
       rc.vec3("u_brick_origin", sb.bricks.origin);
       rc.f1("u_brick_spacing", sb.bricks.spacing);
-      rc.i1("u_sdf_bricks", 4);
       rc.vec3("u_sdf_brick_origin", sb.sdf_bricks.origin);
       rc.f1("u_sdf_brick_spacing", sb.sdf_bricks.spacing);
       rc.f1("u_inv_lipschitz_w", sb.validity_lipschitz > 0.0 ? 1.0 / sb.validity_lipschitz : 0.0);
       rc.f1("u_epsilon", settings.hit_epsilon_voxels * voxel);
-      glActiveTexture(GL_TEXTURE3);
-      glBindTexture(GL_TEXTURE_3D, b.bricks);
-      glActiveTexture(GL_TEXTURE4);
-      glBindTexture(GL_TEXTURE_3D, b.sdf_bricks);
     }
-    if (b.data.uses_depth_cube) {
+    if (variant.has(Feature::DepthCube)) {
       const DepthCube& cube = b.data.depth_cube;
-      rc.i1("u_depth", 5);
       for (int a = 0; a < 3; ++a) {
         const DepthMap& m = cube.maps[2 * a];
         char name[32];
@@ -524,22 +493,19 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
       }
       const Eigen::Vector2i layer = cube.layer_size();
       glUniform2f(rc.loc("u_depth_layer"), float(layer.x()), float(layer.y()));
-      glActiveTexture(GL_TEXTURE5);
-      glBindTexture(GL_TEXTURE_2D_ARRAY, b.depth);
+    }
+    for (const TextureUnitInfo& t : kTextureUnits) {
+      glActiveTexture(GL_TEXTURE0 + unit_number(t.unit));
+      glBindTexture(t.target, b.textures[static_cast<size_t>(t.unit)]);
     }
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_3D, b.sdf);
-    glActiveTexture(GL_TEXTURE1);
-    glBindTexture(GL_TEXTURE_3D, b.deformation);
-    glActiveTexture(GL_TEXTURE2);
-    glBindTexture(GL_TEXTURE_3D, b.alpha);
     glDrawElements(GL_TRIANGLES, 36, GL_UNSIGNED_INT, nullptr);
   }
   glDisable(GL_CULL_FACE);
   glFinish();
   auto stop = std::chrono::steady_clock::now();
 
-  // Read back; GL's row 0 is the bottom, raywarp's the top.
+  // Read back; GL's row 0 is the bottom, raywarp's the top (docs/conventions.md#image-rows).
   Image image(width, height);
   std::vector<uint8_t> rgba(static_cast<size_t>(width) * height * 4);
   std::vector<float> depth(static_cast<size_t>(width) * height);

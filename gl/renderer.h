@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "gl/raycast_tables.h"
 #include "library/camera.h"
 #include "library/image.h"
 #include "library/mesh.h"
@@ -21,10 +22,13 @@ struct FrameStats {
   long nonfinite_pixels = 0;  // NaN or Inf in colour or depth, replaced by background
 };
 
-// Whether a box is ray cast by the `bounded` tracer under `settings` (throws Error when the scene
-// asks for it and the box has no step bounds).
+// Whether a box is ray cast by the `bounded` tracer under `settings`: traces_bounded decides it
+// (throws Error when it does and the box has no step bounds, or reads D through a texture map).
 bool uses_bounded(const BoxTextures& b, const RenderSettings& settings);
-// The #defines that select a box's ray-cast variant (cut mode, sampling, skipping, ...).
+// The features of a box's ray-cast variant (gl/raycast_tables.h): its sampling, cut mode, depth
+// cube, D = 0, texture map, skipping.
+Variant raycast_variant(const BoxTextures& b, const RenderSettings& settings);
+// The #defines that select a box's ray-cast variant: raycast_variant(b, settings).defines().
 std::string raycast_defines(const BoxTextures& b, const RenderSettings& settings);
 // The fragment shader text the renderer compiles for a box: shaders/raycast.frag.glsl with its
 // includes, and only the branches of the box's variant (assemble_shader resolves the RAYWARP_*

@@ -5,8 +5,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "base/atomic_file.h"
 #include "base/error.h"
-#include "library/image.h"
 
 namespace raywarp {
 

@@ -1,4 +1,4 @@
-// Cameras. The convention, so that any image can be checked by another renderer:
+// Cameras (docs/conventions.md#camera-and-eye-space), so that another renderer can check images:
 // view = gluLookAt(eye, target, up); projection = gluPerspective(fov_y_deg, W/H, near, far) or
 // glOrtho(-h*W/H/2, h*W/H/2, -h/2, h/2, near, far) with h = ortho_height. Images are stored
 // row 0 = top, each pixel sampled once at its centre. Depth is linear eye-space depth along the

@@ -3,14 +3,15 @@
 #include "library/depth_cube.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <memory>
-#include <thread>
+#include <utility>
 
 #include "base/error.h"
+#include "base/parallel.h"
 #include "library/winding.h"
 
 namespace raywarp {
@@ -59,47 +60,70 @@ bool owns_edge(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return d.y() < 0.0 || (d.y() == 0.0 && d.x() < 0.0);
 }
 
-// Rasterises every triangle of the mesh (vertices in the box's local frame) into the texel grid
-// of `axis` (texel centres origin + (i + 0.5) spacing along the face's u and v).
-void rasterise_axis(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh, int axis,
-                    const Eigen::Vector3d& h, const DepthMap& grid, AxisHits& hits) {
+// Triangle f of the mesh (vertices in the box's local frame) projected onto the texel grid of
+// `axis` (texel centres origin + (i + 0.5) spacing along the face's u and v), counter-clockwise
+// in (u, v), with the texel centres within its bounds: columns [i0, i1], rows [j0, j1].
+struct Projection {
+  const Eigen::Vector3d* q[3];
+  Eigen::Vector2d p[3];
+  bool normal_up = false;  // the normal along +axis: a ray along +axis (from the -axis face) leaves
+  int i0 = 0, i1 = -1, j0 = 0, j1 = -1;
+};
+
+// False when the triangle is edge-on or covers no texel centre's bounds.
+bool project(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh, Eigen::Index f,
+             int axis, const DepthMap& grid, Projection& pr) {
   const int ua = grid.u_axis, va = grid.v_axis;
   const double s = grid.spacing;
   // The 3D normal's component along `axis` has the sign of the projected signed area (u, v) for
   // axes x and z, and the opposite sign for y ((x, z) is a left-handed pair about y).
   const double handedness = axis == 1 ? -1.0 : 1.0;
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-    const Eigen::Vector3d* q[3] = {&local[mesh.F(f, 0)], &local[mesh.F(f, 1)],
-                                   &local[mesh.F(f, 2)]};
-    Eigen::Vector2d p[3];
-    for (int c = 0; c < 3; ++c) p[c] = Eigen::Vector2d((*q[c])[ua], (*q[c])[va]);
-    double area = edge_function(p[0], p[1], p[2]);
-    if (area == 0.0 || !std::isfinite(area)) continue;  // edge-on: the rays graze it
-    // The normal along +axis (> 0): a ray along +axis (from the -axis face) leaves the mesh.
-    const bool normal_up = handedness * area > 0.0;
-    if (area < 0.0) {  // counter-clockwise in (u, v)
-      std::swap(p[1], p[2]);
-      std::swap(q[1], q[2]);
-      area = -area;
-    }
-    const double umin = std::min({p[0].x(), p[1].x(), p[2].x()});
-    const double umax = std::max({p[0].x(), p[1].x(), p[2].x()});
-    const double vmin = std::min({p[0].y(), p[1].y(), p[2].y()});
-    const double vmax = std::max({p[0].y(), p[1].y(), p[2].y()});
-    // The texel centres within the triangle's bounds, clamped to the grid in double (a far
-    // triangle's index would not fit an int).
-    auto first = [&](double lo, double origin, int n) {
-      return static_cast<int>(std::clamp(std::ceil((lo - origin) / s - 0.5), 0.0, double(n)));
-    };
-    auto last = [&](double hi, double origin, int n) {
-      return static_cast<int>(std::clamp(std::floor((hi - origin) / s - 0.5), -1.0, n - 1.0));
-    };
-    const int i0 = first(umin, grid.origin.x(), grid.nu), i1 = last(umax, grid.origin.x(), grid.nu);
-    const int j0 = first(vmin, grid.origin.y(), grid.nv), j1 = last(vmax, grid.origin.y(), grid.nv);
-    if (i0 > i1 || j0 > j1) continue;
+  const Eigen::Vector3d** q = pr.q;
+  Eigen::Vector2d* p = pr.p;
+  for (int c = 0; c < 3; ++c) q[c] = &local[mesh.F(f, c)];
+  for (int c = 0; c < 3; ++c) p[c] = Eigen::Vector2d((*q[c])[ua], (*q[c])[va]);
+  double area = edge_function(p[0], p[1], p[2]);
+  if (area == 0.0 || !std::isfinite(area)) return false;  // edge-on: the rays graze it
+  pr.normal_up = handedness * area > 0.0;
+  if (area < 0.0) {  // counter-clockwise in (u, v)
+    std::swap(p[1], p[2]);
+    std::swap(q[1], q[2]);
+  }
+  const double umin = std::min({p[0].x(), p[1].x(), p[2].x()});
+  const double umax = std::max({p[0].x(), p[1].x(), p[2].x()});
+  const double vmin = std::min({p[0].y(), p[1].y(), p[2].y()});
+  const double vmax = std::max({p[0].y(), p[1].y(), p[2].y()});
+  // The texel centres within the triangle's bounds, clamped to the grid in double (a far
+  // triangle's index would not fit an int).
+  auto first = [&](double lo, double origin, int n) {
+    return static_cast<int>(std::clamp(std::ceil((lo - origin) / s - 0.5), 0.0, double(n)));
+  };
+  auto last = [&](double hi, double origin, int n) {
+    return static_cast<int>(std::clamp(std::floor((hi - origin) / s - 0.5), -1.0, n - 1.0));
+  };
+  pr.i0 = first(umin, grid.origin.x(), grid.nu);
+  pr.i1 = last(umax, grid.origin.x(), grid.nu);
+  pr.j0 = first(vmin, grid.origin.y(), grid.nv);
+  pr.j1 = last(vmax, grid.origin.y(), grid.nv);
+  return pr.i0 <= pr.i1 && pr.j0 <= pr.j1;
+}
+
+// Rasterises the triangles faces[0, count) of the mesh, in that order, into rows [row0, row1] of
+// the texel grid of `axis`; `hits` holds those rows (texel (i, j) at (j - row0) nu + i).
+void rasterise_rows(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh, int axis,
+                    const Eigen::Vector3d& h, const DepthMap& grid, const int* faces, size_t count,
+                    int row0, int row1, AxisHits& hits) {
+  const double s = grid.spacing;
+  for (size_t n = 0; n < count; ++n) {
+    Projection pr;
+    if (!project(local, mesh, faces[n], axis, grid, pr)) continue;
+    const Eigen::Vector3d* const* q = pr.q;
+    const Eigen::Vector2d* p = pr.p;
+    const bool normal_up = pr.normal_up;
+    const int j0 = std::max(pr.j0, row0), j1 = std::min(pr.j1, row1);
     const bool own[3] = {owns_edge(p[1], p[2]), owns_edge(p[2], p[0]), owns_edge(p[0], p[1])};
     for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
+      for (int i = pr.i0; i <= pr.i1; ++i) {
         const Eigen::Vector2d c(grid.origin.x() + (i + 0.5) * s, grid.origin.y() + (j + 0.5) * s);
         // w[k]: the edge opposite vertex k, i.e. vertex k's barycentric weight times the area.
         const double w[3] = {edge_function(p[1], p[2], c), edge_function(p[2], p[0], c),
@@ -109,7 +133,7 @@ void rasterise_axis(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh,
         if (!inside) continue;
         const double x = (w[0] * (*q[0])[axis] + w[1] * (*q[1])[axis] + w[2] * (*q[2])[axis]) /
                          (w[0] + w[1] + w[2]);
-        const size_t t = static_cast<size_t>(j) * grid.nu + i;
+        const size_t t = static_cast<size_t>(j - row0) * grid.nu + i;
         const float depth_lo = static_cast<float>(x + h[axis]),
                     depth_hi = static_cast<float>(h[axis] - x);
         // From the -axis face the ray runs along +axis: it enters where the normal points down.
@@ -129,6 +153,41 @@ void rasterise_axis(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh,
         }
       }
   }
+}
+
+// The bake's parallel loops work on bands of texel rows of one axis's grid, with about
+// kBandTexels texels and kBandTriangles triangles a band (one index of the loop each), so that
+// an index takes well under the 50 ms between polls (base/interrupt.h).
+constexpr long kBandTexels = long(1) << 17;
+constexpr long kBandTriangles = long(1) << 14;
+// Triangles, or texels left for the winding number, per index of the other loops.
+constexpr long kChunk = long(1) << 12;
+long chunks(long n, long chunk) { return (n + chunk - 1) / chunk; }
+
+// The bands of each axis: rows [b rows, min((b + 1) rows, nv)) for b in [0, count).
+struct Bands {
+  int rows[3] = {1, 1, 1};
+  int count[3] = {1, 1, 1};
+  int total() const { return count[0] + count[1] + count[2]; }
+  // Band `index` of all axes in order (axis 0's first) as (axis, band of the axis).
+  std::pair<int, int> of(int index) const {
+    int a = 0;
+    while (index >= count[a]) index -= count[a++];
+    return {a, index};
+  }
+};
+
+Bands bands_of(const DepthCube& cube, long triangles) {
+  Bands b;
+  for (int a = 0; a < 3; ++a) {
+    const DepthMap& m = cube.maps[2 * a];
+    const long want = std::max(chunks(long(m.nu) * m.nv, kBandTexels),
+                               chunks(triangles, kBandTriangles));
+    const int count = static_cast<int>(std::clamp(want, 1L, long(m.nv)));
+    b.rows[a] = (m.nv + count - 1) / count;
+    b.count[a] = (m.nv + b.rows[a] - 1) / b.rows[a];
+  }
+  return b;
 }
 
 }  // namespace
@@ -180,11 +239,13 @@ std::uint64_t depth_cube_bytes(const Eigen::Vector3d& half_extents, int resoluti
   return w * h * 6 * sizeof(float);
 }
 
-DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution) {
+DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
+                          Interrupter* interrupter) {
   if (resolution < 1 || resolution > 65536)
     throw Error("implicit.resolution = " + std::to_string(resolution) +
                 ": a depth cube needs a resolution in [1, 65536]");
   const auto start = std::chrono::steady_clock::now();
+  raywarp::poll(interrupter, "depth cube", 0.0);
   DepthCube cube;
   const Eigen::Vector3d& h = box.half_extents;
   cube.half_extents = h;
@@ -208,85 +269,145 @@ DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution) {
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
     local[i] = box.to_local(mesh.V.row(i).transpose());
 
+  // Each triangle goes to the bands of rows it covers, per axis, in mesh order (a texel then
+  // meets its triangles in the same order whatever the bands).
+  const long triangles = static_cast<long>(mesh.F.rows());
+  const Bands bands = bands_of(cube, triangles);
+  std::vector<std::array<int, 6>> spans(static_cast<size_t>(triangles));  // per axis: bands
+  parallel_for(chunks(triangles, kChunk), [&](long chunk) {
+    raywarp::poll(interrupter);
+    for (long f = chunk * kChunk; f < std::min(triangles, (chunk + 1) * kChunk); ++f)
+      for (int a = 0; a < 3; ++a) {
+        Projection pr;
+        int& b0 = spans[f][2 * a];
+        int& b1 = spans[f][2 * a + 1];
+        b0 = 0;
+        b1 = -1;
+        if (project(local, mesh, f, a, cube.maps[2 * a], pr)) {
+          b0 = pr.j0 / bands.rows[a];
+          b1 = pr.j1 / bands.rows[a];
+        }
+      }
+  });
+  std::vector<int> faces[3];           // per axis: the triangles of band 0, then band 1, ...
+  std::vector<size_t> band_start[3];  // per axis: where each band's triangles start in faces
+  parallel_for(3, [&](long a) {
+    raywarp::poll(interrupter);
+    std::vector<size_t>& at = band_start[a];
+    at.assign(static_cast<size_t>(bands.count[a]) + 1, 0);
+    for (const auto& span : spans)
+      for (int b = span[2 * a]; b <= span[2 * a + 1]; ++b) ++at[b + 1];
+    for (size_t b = 1; b < at.size(); ++b) at[b] += at[b - 1];
+    faces[a].resize(at.back());
+    std::vector<size_t> next(at.begin(), at.end() - 1);
+    for (long f = 0; f < triangles; ++f)
+      for (int b = spans[f][2 * a]; b <= spans[f][2 * a + 1]; ++b)
+        faces[a][next[b]++] = static_cast<int>(f);
+  });
+  spans = {};
+
   // Where the ray starts inside the mesh the face is no surface of the mesh: -far_depth keeps
   // that face's vote inside all along the ray and its |f_k| out of the min (see depth_cube.h).
   const float inside_depth = -cube.far_depth;
-  // Per axis: rasterise, then fill its two maps. Rays with no hit inside the box whose crossings
-  // before the two faces disagree (an open mesh) are left for the winding number.
-  DepthCubeTexels counts[3];
-  std::vector<size_t> undecided[3];
-  auto bake_axis = [&](int a) {
-    DepthMap& lo = cube.maps[2 * a];
-    DepthMap& hi = cube.maps[2 * a + 1];
-    AxisHits ah(lo.depth.size());
-    rasterise_axis(local, mesh, a, h, lo, ah);
-    DepthCubeTexels& c = counts[a];
-    for (size_t t = 0; t < lo.depth.size(); ++t) {
-      if (std::isfinite(ah.near_lo[t])) {  // then also from the other face
-        // The first surface point: where the ray enters the mesh; when it leaves the mesh
-        // there, it started inside.
-        lo.depth[t] = ah.enters_lo[t] ? ah.near_lo[t] : inside_depth;
-        hi.depth[t] = ah.enters_hi[t] ? ah.near_hi[t] : inside_depth;
-        c.surface += ah.enters_lo[t] + ah.enters_hi[t];
-        c.inside += !ah.enters_lo[t] + !ah.enters_hi[t];
-      } else if ((ah.winding_lo[t] > 0) != (ah.winding_hi[t] > 0)) {
-        undecided[a].push_back(t);
-      } else {  // no surface inside the box: the whole ray is inside or outside
-        const bool inside = ah.winding_lo[t] > 0;
-        lo.depth[t] = hi.depth[t] = inside ? inside_depth : cube.far_depth;
-        (inside ? c.inside : c.empty) += 2;
+  // Per band of an axis: rasterise, then fill its rows of the axis's two maps. Rays with no hit
+  // inside the box whose crossings before the two faces disagree (an open mesh) are left for
+  // the winding number. Each band writes only its own rows.
+  std::vector<DepthCubeTexels> counts(static_cast<size_t>(bands.total()));
+  std::vector<std::vector<size_t>> undecided(counts.size());
+  parallel_for(
+      bands.total(),
+      [&](long index) {
+        const auto [a, b] = bands.of(static_cast<int>(index));
+        DepthMap& lo = cube.maps[2 * a];
+        DepthMap& hi = cube.maps[2 * a + 1];
+        const int row0 = b * bands.rows[a], row1 = std::min(row0 + bands.rows[a], lo.nv) - 1;
+        AxisHits ah(static_cast<size_t>(row1 - row0 + 1) * lo.nu);
+        rasterise_rows(local, mesh, a, h, lo, faces[a].data() + band_start[a][b],
+                       band_start[a][b + 1] - band_start[a][b], row0, row1, ah);
+        DepthCubeTexels& c = counts[index];
+        const size_t first = static_cast<size_t>(row0) * lo.nu;
+        for (size_t k = 0; k < ah.near_lo.size(); ++k) {
+          const size_t t = first + k;
+          if (std::isfinite(ah.near_lo[k])) {  // then also from the other face
+            // The first surface point: where the ray enters the mesh; when it leaves the mesh
+            // there, it started inside.
+            lo.depth[t] = ah.enters_lo[k] ? ah.near_lo[k] : inside_depth;
+            hi.depth[t] = ah.enters_hi[k] ? ah.near_hi[k] : inside_depth;
+            c.surface += ah.enters_lo[k] + ah.enters_hi[k];
+            c.inside += !ah.enters_lo[k] + !ah.enters_hi[k];
+          } else if ((ah.winding_lo[k] > 0) != (ah.winding_hi[k] > 0)) {
+            undecided[index].push_back(t);
+          } else {  // no surface inside the box: the whole ray is inside or outside
+            const bool inside = ah.winding_lo[k] > 0;
+            lo.depth[t] = hi.depth[t] = inside ? inside_depth : cube.far_depth;
+            (inside ? c.inside : c.empty) += 2;
+          }
+        }
+      },
+      interrupter, "depth cube");
+  for (int index = 0; index < bands.total(); ++index) {
+    cube.texels.surface += counts[index].surface;
+    cube.texels.inside += counts[index].inside;
+    cube.texels.empty += counts[index].empty;
+  }
+
+  // The undecided rays, by the winding number at their point on the -axis face.
+  std::vector<std::pair<int, size_t>> open;  // (axis, texel)
+  for (int index = 0; index < bands.total(); ++index)
+    for (size_t t : undecided[index]) open.emplace_back(bands.of(index).first, t);
+  if (!open.empty()) {
+    const WindingNumber winding(mesh);  // built only if some ray needs it
+    std::vector<char> inside(open.size());
+    const long count = static_cast<long>(open.size());
+    parallel_for(chunks(count, kChunk), [&](long chunk) {
+      raywarp::poll(interrupter);
+      for (long k = chunk * kChunk; k < std::min(count, (chunk + 1) * kChunk); ++k) {
+        const auto [a, t] = open[k];
+        const DepthMap& lo = cube.maps[2 * a];
+        const int i = static_cast<int>(t % lo.nu), j = static_cast<int>(t / lo.nu);
+        Eigen::Vector3d p = Eigen::Vector3d::Zero();
+        p[a] = -h[a];
+        p[lo.u_axis] = lo.origin.x() + (i + 0.5) * lo.spacing;
+        p[lo.v_axis] = lo.origin.y() + (j + 0.5) * lo.spacing;
+        inside[k] = winding(box.to_object(p)) > 0.5;
       }
+    });
+    for (size_t k = 0; k < open.size(); ++k) {
+      const auto [a, t] = open[k];
+      cube.maps[2 * a].depth[t] = cube.maps[2 * a + 1].depth[t] =
+          inside[k] ? inside_depth : cube.far_depth;
+      (inside[k] ? cube.texels.inside : cube.texels.empty) += 2;
+      cube.texels.winding_fallbacks += 2;
     }
-  };
-  // One thread per axis (each writes only its own maps), unless the maps are large: then one
-  // axis at a time, so that only one axis's hits (18 bytes a texel) are held at once.
-  if (cube.map_texels() / 2 <= (long(1) << 23)) {
-    std::vector<std::thread> threads;
-    for (int a = 0; a < 3; ++a) threads.emplace_back(bake_axis, a);
-    for (auto& t : threads) t.join();
-  } else {
-    for (int a = 0; a < 3; ++a) bake_axis(a);
   }
-  std::unique_ptr<WindingNumber> winding;  // built only if some ray needs it
-  for (int a = 0; a < 3; ++a) {
-    DepthMap& lo = cube.maps[2 * a];
-    DepthMap& hi = cube.maps[2 * a + 1];
-    for (size_t t : undecided[a]) {
-      if (!winding) winding = std::make_unique<WindingNumber>(mesh);
-      const int i = static_cast<int>(t % lo.nu), j = static_cast<int>(t / lo.nu);
-      Eigen::Vector3d p = Eigen::Vector3d::Zero();
-      p[a] = -h[a];
-      p[lo.u_axis] = lo.origin.x() + (i + 0.5) * lo.spacing;
-      p[lo.v_axis] = lo.origin.y() + (j + 0.5) * lo.spacing;
-      const bool inside = (*winding)(box.to_object(p)) > 0.5;
-      lo.depth[t] = hi.depth[t] = inside ? inside_depth : cube.far_depth;
-      (inside ? counts[a].inside : counts[a].empty) += 2;
-      counts[a].winding_fallbacks += 2;
-    }
-    cube.texels.surface += counts[a].surface;
-    cube.texels.inside += counts[a].inside;
-    cube.texels.empty += counts[a].empty;
-    cube.texels.winding_fallbacks += counts[a].winding_fallbacks;
-  }
+
   // Each map's silhouette dilated by a texel: an empty texel next to texels that see the surface
-  // takes the deepest of their depths (see DepthCube::far_depth).
+  // takes the deepest of their depths (see DepthCube::far_depth). By bands of rows.
   for (DepthMap& m : cube.maps) {
     const std::vector<float> original = m.depth;
-    for (int j = 0; j < m.nv; ++j)
-      for (int i = 0; i < m.nu; ++i) {
-        float& h = m.depth[static_cast<size_t>(j) * m.nu + i];
-        if (h != cube.far_depth) continue;
-        float deepest = -1.0f;
-        for (int y = std::max(j - 1, 0); y <= std::min(j + 1, m.nv - 1); ++y)
-          for (int x = std::max(i - 1, 0); x <= std::min(i + 1, m.nu - 1); ++x) {
-            const float n = original[static_cast<size_t>(y) * m.nu + x];
-            if (n >= 0.0f && n != cube.far_depth) deepest = std::max(deepest, n);
-          }
-        if (deepest < 0.0f) continue;
-        h = deepest;
-        ++cube.texels.dilated;
-      }
+    const int rows = bands.rows[m.axis];
+    std::vector<long> dilated(static_cast<size_t>(bands.count[m.axis]), 0);
+    parallel_for(bands.count[m.axis], [&](long band) {
+      raywarp::poll(interrupter);
+      const int j0 = static_cast<int>(band) * rows, j1 = std::min(j0 + rows, m.nv);
+      for (int j = j0; j < j1; ++j)
+        for (int i = 0; i < m.nu; ++i) {
+          float& depth = m.depth[static_cast<size_t>(j) * m.nu + i];
+          if (depth != cube.far_depth) continue;
+          float deepest = -1.0f;
+          for (int y = std::max(j - 1, 0); y <= std::min(j + 1, m.nv - 1); ++y)
+            for (int x = std::max(i - 1, 0); x <= std::min(i + 1, m.nu - 1); ++x) {
+              const float d = original[static_cast<size_t>(y) * m.nu + x];
+              if (d >= 0.0f && d != cube.far_depth) deepest = std::max(deepest, d);
+            }
+          if (deepest < 0.0f) continue;
+          depth = deepest;
+          ++dilated[band];
+        }
+    });
+    for (long d : dilated) cube.texels.dilated += d;
   }
+  raywarp::poll(interrupter, "depth cube", 1.0);
   cube.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return cube;

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "base/box.h"
+#include "base/interrupt.h"
 #include "library/mesh.h"
 
 namespace raywarp {
@@ -112,8 +113,10 @@ std::uint64_t depth_cube_bytes(const Eigen::Vector3d& half_extents, int resoluti
 // first hit inside the box, or, with no hit inside, by the signed crossings before the face
 // (the same from both faces on a closed mesh; where they differ, the mesh is open along that
 // line and the generalised winding number at the face point decides). Throws Error for a
-// resolution outside [1, 65536].
-DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution);
+// resolution outside [1, 65536]. In parallel by bands of texel rows; `interrupter`, when given, is
+// polled throughout and told the progress of stage "depth cube" (Cancelled when cancelled).
+DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
+                          Interrupter* interrupter = nullptr);
 
 // f(p) at p in the box's local frame, exactly as shaders/raycast.frag.glsl's distance_at with
 // RAYWARP_IMPLICIT 1 (in double).

@@ -1,15 +1,10 @@
 #include "library/gif.h"
 
-#include <fcntl.h>
 #include <gif_lib.h>
-#include <unistd.h>
 
 #include <array>
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <limits>
+#include <ostream>
 
 #include "base/error.h"
 
@@ -42,6 +37,13 @@ class NearestColour {
   const ColorMapObject& map_;
   std::array<int, 1 << 15> cache_;
 };
+
+// giflib's output function: the bytes into the std::ostream in UserData.
+int write_to_stream(GifFileType* gif, const GifByteType* bytes, int size) {
+  auto& out = *static_cast<std::ostream*>(gif->UserData);
+  out.write(reinterpret_cast<const char*>(bytes), size);
+  return out ? size : 0;
+}
 
 struct GifCloser {
   GifFileType* gif = nullptr;
@@ -85,68 +87,51 @@ void write_gif(const std::string& path, const std::vector<Image>& frames, int de
     throw Error(path + ": could not choose the GIF palette");
   NearestColour nearest(*map);
 
-  const std::string tmp = path + ".tmp";
-  int error = 0;
-  GifCloser out;
-  // giflib's EGifOpenFileName creates files readable by their owner only; open the file here so
-  // that it gets the usual 0666 less the umask.
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
-  if (fd < 0) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
-  out.gif = EGifOpenFileHandle(fd, &error);
-  if (!out.gif) {
-    ::close(fd);
-    std::filesystem::remove(tmp);
-    throw Error(path + ": cannot write (" + std::string(GifErrorString(error)) + ")");
-  }
-  auto fail = [&](const char* what) {
-    const int code = out.gif->Error;
-    EGifCloseFile(out.gif, nullptr);
-    out.gif = nullptr;
-    std::filesystem::remove(tmp);
-    throw Error(path + ": " + what + " (" + GifErrorString(code) + ")");
-  };
-  EGifSetGifVersion(out.gif, true);
-  if (EGifPutScreenDesc(out.gif, w, h, 8, 0, map) == GIF_ERROR) fail("cannot write the header");
-  // Loop forever (the NETSCAPE2.0 application extension).
-  const unsigned char netscape[] = "NETSCAPE2.0";
-  const unsigned char loop[] = {1, 0, 0};
-  if (EGifPutExtensionLeader(out.gif, APPLICATION_EXT_FUNC_CODE) == GIF_ERROR ||
-      EGifPutExtensionBlock(out.gif, 11, netscape) == GIF_ERROR ||
-      EGifPutExtensionBlock(out.gif, 3, loop) == GIF_ERROR ||
-      EGifPutExtensionTrailer(out.gif) == GIF_ERROR)
-    fail("cannot write the loop extension");
-  std::vector<GifByteType> line(w);
-  for (const Image& f : frames) {
-    GraphicsControlBlock gcb{};
-    gcb.DisposalMode = DISPOSE_DO_NOT;
-    gcb.DelayTime = delay_cs;
-    gcb.TransparentColor = NO_TRANSPARENT_COLOR;
-    GifByteType ext[4];
-    const size_t len = EGifGCBToExtension(&gcb, ext);
-    if (EGifPutExtension(out.gif, GRAPHICS_EXT_FUNC_CODE, static_cast<int>(len), ext) == GIF_ERROR)
-      fail("cannot write a frame's delay");
-    if (EGifPutImageDesc(out.gif, 0, 0, w, h, false, nullptr) == GIF_ERROR)
-      fail("cannot write a frame");
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) {
-        const uint8_t* p = &f.rgba[4 * (size_t(y) * w + x)];
-        line[x] = nearest(p[0], p[1], p[2]);
+  // Written whole (write_file_atomic), through giflib's output function into the stream.
+  write_file_atomic(path, [&](std::ostream& stream) {
+    int error = 0;
+    GifCloser out;
+    out.gif = EGifOpen(&stream, &write_to_stream, &error);
+    if (!out.gif) throw Error(path + ": cannot write (" + std::string(GifErrorString(error)) + ")");
+    auto fail = [&](const char* what) {
+      throw Error(path + ": " + what + " (" + GifErrorString(out.gif->Error) + ")");
+    };
+    EGifSetGifVersion(out.gif, true);
+    if (EGifPutScreenDesc(out.gif, w, h, 8, 0, map) == GIF_ERROR) fail("cannot write the header");
+    // Loop forever (the NETSCAPE2.0 application extension).
+    const unsigned char netscape[] = "NETSCAPE2.0";
+    const unsigned char loop[] = {1, 0, 0};
+    if (EGifPutExtensionLeader(out.gif, APPLICATION_EXT_FUNC_CODE) == GIF_ERROR ||
+        EGifPutExtensionBlock(out.gif, 11, netscape) == GIF_ERROR ||
+        EGifPutExtensionBlock(out.gif, 3, loop) == GIF_ERROR ||
+        EGifPutExtensionTrailer(out.gif) == GIF_ERROR)
+      fail("cannot write the loop extension");
+    std::vector<GifByteType> line(w);
+    for (const Image& f : frames) {
+      GraphicsControlBlock gcb{};
+      gcb.DisposalMode = DISPOSE_DO_NOT;
+      gcb.DelayTime = delay_cs;
+      gcb.TransparentColor = NO_TRANSPARENT_COLOR;
+      GifByteType ext[4];
+      const size_t len = EGifGCBToExtension(&gcb, ext);
+      if (EGifPutExtension(out.gif, GRAPHICS_EXT_FUNC_CODE, static_cast<int>(len), ext) ==
+          GIF_ERROR)
+        fail("cannot write a frame's delay");
+      if (EGifPutImageDesc(out.gif, 0, 0, w, h, false, nullptr) == GIF_ERROR)
+        fail("cannot write a frame");
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const uint8_t* p = &f.rgba[4 * (size_t(y) * w + x)];
+          line[x] = nearest(p[0], p[1], p[2]);
+        }
+        if (EGifPutLine(out.gif, line.data(), w) == GIF_ERROR) fail("cannot write a frame");
       }
-      if (EGifPutLine(out.gif, line.data(), w) == GIF_ERROR) fail("cannot write a frame");
     }
-  }
-  GifFileType* gif = out.gif;
-  out.gif = nullptr;
-  if (EGifCloseFile(gif, &error) == GIF_ERROR) {
-    std::filesystem::remove(tmp);
-    throw Error(path + ": cannot finish the file (" + std::string(GifErrorString(error)) + ")");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp);
-    throw Error(path + ": cannot write (" + ec.message() + ")");
-  }
+    GifFileType* gif = out.gif;
+    out.gif = nullptr;
+    if (EGifCloseFile(gif, &error) == GIF_ERROR)
+      throw Error(path + ": cannot finish the file (" + std::string(GifErrorString(error)) + ")");
+  });
 }
 
 }  // namespace raywarp

@@ -1,17 +1,12 @@
 #include "library/image.h"
 
 #include <stb/stb_image_write.h>
-#include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <functional>
 #include <limits>
-#include <system_error>
+#include <ostream>
 
 #include "base/error.h"
 
@@ -19,31 +14,19 @@ namespace raywarp {
 
 namespace {
 
-// A name beside `path` that no other writer (thread or process) uses at the same time, so the
-// final rename stays within one file system and is atomic.
-std::filesystem::path temporary_beside(const std::filesystem::path& path) {
-  static std::atomic<unsigned long> counter{0};
-  std::filesystem::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-  return tmp;
+// stbi_write_png_to_func's sink: the bytes into the std::ostream at `context`.
+void write_to_stream(void* context, void* data, int size) {
+  static_cast<std::ostream*>(context)->write(static_cast<const char*>(data), size);
 }
 
-// Runs `write(tmp)`, which returns false on failure, then renames tmp to `path`. On any failure
-// the temporary file is removed and Error names `path`; `path` itself is never half-written.
-void write_via_temporary(const std::string& path, const char* what,
-                         const std::function<bool(const std::string&)>& write) {
-  const std::filesystem::path tmp = temporary_beside(path);
-  std::error_code ec;
-  if (!write(tmp.string())) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path + ": cannot write the " + what + " (is the folder there and writable?)");
-  }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(tmp, ignored);
-    throw Error(path + ": cannot write the " + what + ": " + ec.message());
-  }
+// A PNG of `comp` 8-bit channels per pixel, written whole (write_file_atomic).
+void write_png_file(const std::string& path, const char* what, int width, int height, int comp,
+                    const uint8_t* pixels) {
+  write_file_atomic(path, [&](std::ostream& out) {
+    if (stbi_write_png_to_func(&write_to_stream, &out, width, height, comp, pixels,
+                               width * comp) == 0)
+      throw Error(path + ": cannot encode the " + what + " (out of memory?)");
+  });
 }
 
 void check_size(const std::string& path, const Image& image) {
@@ -64,10 +47,7 @@ bool Image::covered(int x, int y) const { return std::isfinite(depth_at(x, y)); 
 
 void write_png(const std::string& path, const Image& image) {
   check_size(path, image);
-  write_via_temporary(path, "PNG", [&](const std::string& tmp) {
-    return stbi_write_png(tmp.c_str(), image.width, image.height, 4, image.rgba.data(),
-                          image.width * 4) != 0;
-  });
+  write_png_file(path, "PNG", image.width, image.height, 4, image.rgba.data());
 }
 
 void write_mask_png(const std::string& path, const Image& image) {
@@ -76,9 +56,7 @@ void write_mask_png(const std::string& path, const Image& image) {
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x)
       mask[static_cast<size_t>(y) * image.width + x] = image.covered(x, y) ? 255 : 0;
-  write_via_temporary(path, "mask PNG", [&](const std::string& tmp) {
-    return stbi_write_png(tmp.c_str(), image.width, image.height, 1, mask.data(), image.width) != 0;
-  });
+  write_png_file(path, "mask PNG", image.width, image.height, 1, mask.data());
 }
 
 void write_depth_f32(const std::string& path, const Image& image) {
@@ -92,14 +70,13 @@ void write_depth_f32(const std::string& path, const Image& image) {
   write_file_atomic(path, bytes.data(), bytes.size());
 }
 
-void write_file_atomic(const std::string& path, const void* bytes, size_t size) {
-  write_via_temporary(path, "file", [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
-    out.write(static_cast<const char*>(bytes), static_cast<std::streamsize>(size));
-    out.close();
-    return !out.fail();
-  });
+double srgb_encode(double linear) {
+  const double c = std::clamp(linear, 0.0, 1.0);
+  return c < 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+}
+
+uint8_t srgb_byte(double linear) {
+  return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(linear)));
 }
 
 ImageComparison compare_images(const Image& a, const Image& b, double depth_threshold) {

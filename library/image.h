@@ -1,8 +1,10 @@
-// Rendered images and their files. Row 0 is the top row.
+// Rendered images and their files. Row 0 is the top row (docs/conventions.md#image-rows).
 #pragma once
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "base/atomic_file.h"
 
 namespace raywarp {
 
@@ -21,8 +23,13 @@ struct Image {
 void write_png(const std::string& path, const Image& image);
 void write_mask_png(const std::string& path, const Image& image);   // 255 where covered
 void write_depth_f32(const std::string& path, const Image& image);  // float32 LE, H x W, row-major
-// Writes `bytes` to `path` atomically (temporary file, then rename).
-void write_file_atomic(const std::string& path, const void* bytes, size_t size);
+// write_file_atomic (base/atomic_file.h) writes any other file whole.
+
+// The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1]: 12.92 c below
+// 0.0031308, else 1.055 c^(1/2.4) - 0.055. shaders/shading.glsl's srgb_encode is the same.
+double srgb_encode(double linear);
+// The 8-bit sRGB code of a linear value: round(255 srgb_encode(linear)), halves away from 0.
+uint8_t srgb_byte(double linear);
 
 // Silhouette and depth agreement of two renders of the same camera.
 struct ImageComparison {

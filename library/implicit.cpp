@@ -5,23 +5,21 @@
 
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "base/error.h"
+#include "base/parallel.h"
+#include "library/triangle_bvh.h"
 #include "library/winding.h"
 
 namespace raywarp {
@@ -92,41 +90,40 @@ void check_memory(const GridShape& shape, const ImplicitSpec& spec, size_t budge
 // Share of the "distance" stage spent in OpenVDB; the exact pass takes the rest.
 constexpr double kVdbShare = 0.7;
 
-// OpenVDB's interrupter interface, forwarding the main thread's percentages to `progress` as
-// stage "distance". The voxelizer polls wasInterrupted() (no percentage) from worker threads:
-// those calls only read the flag, so `progress` is called from one thread at a time.
-class DistanceInterrupter {
+// OpenVDB's interrupter interface over raywarp's: the voxelizer polls wasInterrupted() from
+// worker threads, with a percentage from the main thread.
+class VdbInterrupter {
  public:
-  explicit DistanceInterrupter(const Progress& progress) : progress_(progress) {}
+  explicit VdbInterrupter(Interrupter* interrupter) : interrupter_(interrupter) {}
   void start(const char* = nullptr) {}
   void end() {}
   bool wasInterrupted(int percent = -1) {
-    if (percent >= 0 && progress_ && !cancelled_.load()) {
-      if (!progress_("distance", kVdbShare * std::clamp(percent, 0, 100) / 100.0)) {
-        cancelled_ = true;
-      }
+    if (!interrupter_) return false;
+    try {
+      if (percent >= 0)
+        interrupter_->poll("distance", kVdbShare * std::clamp(percent, 0, 100) / 100.0);
+      else
+        interrupter_->poll();
+    } catch (const Cancelled&) {
+      return true;
     }
-    return cancelled_.load();
+    return false;
   }
-  bool cancelled() const { return cancelled_.load(); }
 
  private:
-  const Progress& progress_;
-  std::atomic<bool> cancelled_{false};
+  Interrupter* interrupter_;
 };
 
-void report(const Progress& progress, const char* stage, double fraction) {
-  if (progress && !progress(stage, fraction)) throw Error("distance grid bake cancelled");
-}
-
-using Triangle = std::array<openvdb::Vec3d, 3>;
+// Texels per index of the parallel loops: enough work to pay for a poll, far under 50 ms.
+constexpr size_t kChunk = 1024;
+long chunks(size_t n) { return static_cast<long>((n + kChunk - 1) / kChunk); }
 
 // The triangles that can be within the band of a texel (their bounds overlap the grid grown by
 // the band and a voxel), in the box's local frame.
 struct NearTriangles {
   std::vector<openvdb::Vec3s> points;  // every mesh vertex, single precision, for OpenVDB
   std::vector<openvdb::Vec3I> indices;
-  std::vector<Triangle> corners;  // double precision, for the exact distances
+  std::vector<Triangle3d> corners;  // double precision, for the exact distances
 };
 
 NearTriangles triangles_near(const Mesh& mesh, const Box& box, const Eigen::AlignedBox3d& region) {
@@ -142,114 +139,10 @@ NearTriangles triangles_near(const Mesh& mesh, const Box& box, const Eigen::Alig
     for (int c = 0; c < 3; ++c) bounds.extend(local[mesh.F(f, c)]);
     if (!bounds.intersects(region)) continue;
     near.indices.emplace_back(mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2));
-    Triangle t;
-    for (int c = 0; c < 3; ++c) {
-      const Eigen::Vector3d& p = local[mesh.F(f, c)];
-      t[c] = openvdb::Vec3d(p.x(), p.y(), p.z());
-    }
-    near.corners.push_back(t);
+    near.corners.push_back({local[mesh.F(f, 0)], local[mesh.F(f, 1)], local[mesh.F(f, 2)]});
   }
   return near;
 }
-
-// Bounding-box tree over triangles for the exact distance from a point, searched only within
-// a given bound (a narrow band needs no farther answer).
-class TriangleTree {
- public:
-  explicit TriangleTree(std::vector<Triangle> triangles) : triangles_(std::move(triangles)) {
-    if (triangles_.empty()) return;
-    std::vector<openvdb::Vec3d> centroids(triangles_.size());
-    for (size_t t = 0; t < triangles_.size(); ++t) {
-      centroids[t] = (triangles_[t][0] + triangles_[t][1] + triangles_[t][2]) / 3.0;
-    }
-    std::vector<int> order(triangles_.size());
-    std::iota(order.begin(), order.end(), 0);
-    build(order, centroids, 0, static_cast<int>(order.size()));
-    std::vector<Triangle> sorted(triangles_.size());
-    for (size_t i = 0; i < order.size(); ++i) sorted[i] = triangles_[order[i]];
-    triangles_ = std::move(sorted);
-  }
-
-  // min(bound, distance from p to the nearest triangle).
-  double nearest(const openvdb::Vec3d& p, double bound) const {
-    if (nodes_.empty()) return bound;
-    double best2 = bound * bound;
-    int stack[64];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (node.box_distance2(p) >= best2) continue;
-      if (node.left < 0) {
-        openvdb::Vec3d uvw;
-        for (int i = node.first; i < node.first + node.count; ++i) {
-          const Triangle& t = triangles_[i];
-          best2 = std::min(
-              best2, (p - openvdb::math::closestPointOnTriangleToPoint(t[0], t[1], t[2], p, uvw))
-                         .lengthSqr());
-        }
-      } else {
-        // Nearer child last, so it is searched first and tightens the bound for the other.
-        const bool left_first =
-            nodes_[node.left].box_distance2(p) <= nodes_[node.right].box_distance2(p);
-        stack[top++] = left_first ? node.right : node.left;
-        stack[top++] = left_first ? node.left : node.right;
-      }
-    }
-    return std::sqrt(best2);
-  }
-
- private:
-  static constexpr int kLeafSize = 4;
-
-  struct Node {
-    openvdb::Vec3d lower, upper;
-    int first = 0, count = 0;
-    int left = -1, right = -1;
-    double box_distance2(const openvdb::Vec3d& p) const {
-      double d2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        const double d = std::max({lower[a] - p[a], 0.0, p[a] - upper[a]});
-        d2 += d * d;
-      }
-      return d2;
-    }
-  };
-
-  // Median split on the longest axis of the centroids (depth <= log2(n) + 1 < 64).
-  int build(std::vector<int>& order, const std::vector<openvdb::Vec3d>& centroids, int first,
-            int last) {
-    const int index = static_cast<int>(nodes_.size());
-    nodes_.emplace_back();
-    Node node;
-    node.first = first;
-    node.count = last - first;
-    node.lower = openvdb::Vec3d(std::numeric_limits<double>::max());
-    node.upper = openvdb::Vec3d(-std::numeric_limits<double>::max());
-    openvdb::Vec3d clower = node.lower, cupper = node.upper;
-    for (int i = first; i < last; ++i) {
-      for (const openvdb::Vec3d& v : triangles_[order[i]]) {
-        node.lower = openvdb::math::minComponent(node.lower, v);
-        node.upper = openvdb::math::maxComponent(node.upper, v);
-      }
-      clower = openvdb::math::minComponent(clower, centroids[order[i]]);
-      cupper = openvdb::math::maxComponent(cupper, centroids[order[i]]);
-    }
-    if (last - first > kLeafSize) {
-      const int axis = static_cast<int>(openvdb::math::MaxIndex(cupper - clower));
-      const int middle = first + (last - first) / 2;
-      std::nth_element(order.begin() + first, order.begin() + middle, order.begin() + last,
-                       [&](int s, int t) { return centroids[s][axis] < centroids[t][axis]; });
-      node.left = build(order, centroids, first, middle);
-      node.right = build(order, centroids, middle, last);
-    }
-    nodes_[index] = node;
-    return index;
-  }
-
-  std::vector<Triangle> triangles_;
-  std::vector<Node> nodes_;
-};
 
 enum TexelState : uint8_t { kUnvisited = 0, kQueued, kBeyond, kBand };
 
@@ -283,7 +176,7 @@ void for_each_face_neighbour(const Grid3<float>& grid, uint32_t t, Fn fn) {
 // texel: from a texel, a step along the largest component towards its nearest surface point
 // does not increase the distance, down to the texels at the surface, which OpenVDB has.
 void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
-                        const Progress& progress, Grid3<float>& grid, std::vector<uint8_t>& state,
+                        Interrupter* interrupter, Grid3<float>& grid, std::vector<uint8_t>& state,
                         float background) {
   std::fill(grid.data.begin(), grid.data.end(), background);
   state.assign(grid.size(), kUnvisited);
@@ -301,11 +194,11 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
       openvdb::math::Transform::createLinearTransform(grid.spacing);
   const Eigen::Vector3d first_centre = grid.texel_centre(0, 0, 0);
   transform->postTranslate(openvdb::Vec3d(first_centre.x(), first_centre.y(), first_centre.z()));
-  DistanceInterrupter interrupter(progress);
+  VdbInterrupter vdb_interrupter(interrupter);
   const std::vector<openvdb::Vec4I> no_quads;
   openvdb::FloatGrid::Ptr vdb = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
-      interrupter, *transform, near.points, near.indices, no_quads, float(spec.band_voxels));
-  if (interrupter.cancelled()) throw Error("distance grid bake cancelled");
+      vdb_interrupter, *transform, near.points, near.indices, no_quads, float(spec.band_voxels));
+  raywarp::poll(interrupter);  // OpenVDB returns early when cancelled
 
   // OpenVDB's value is the distance to some triangle, in single precision from single-precision
   // points: padded by rounding (~1e-7 of coordinates ~resolution voxels), it bounds the search.
@@ -347,21 +240,25 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
   wave.insert(wave.end(), next.begin(), next.end());
   next.clear();
 
-  const TriangleTree tree(std::move(near.corners));
+  // The exact distances, searched only within the bound (a narrow band needs no farther one).
+  const TriangleBvh tree(std::move(near.corners));
   std::vector<float> distance;
   size_t measured = 0;
   const size_t expected = wave.size();  // for progress; the growth adds a little
   while (!wave.empty()) {
-    report(progress, "distance",
+    raywarp::poll(interrupter, "distance",
            kVdbShare + (1.0 - kVdbShare) * std::min(1.0, double(measured) / double(expected)));
     distance.resize(wave.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, wave.size()), [&](const auto& range) {
-      for (size_t n = range.begin(); n != range.end(); ++n) {
-        const uint32_t t = wave[n];
-        const Eigen::Vector3d q = centre_of(grid, t);
-        distance[n] = float(tree.nearest(openvdb::Vec3d(q.x(), q.y(), q.z()), grid.data[t]));
-      }
-    });
+    parallel_for(
+        chunks(wave.size()),
+        [&](long chunk) {
+          for (size_t n = chunk * kChunk; n < std::min(wave.size(), (chunk + 1) * kChunk); ++n) {
+            const uint32_t t = wave[n];
+            const Eigen::Vector3d q = centre_of(grid, t);
+            distance[n] = float(tree.nearest_distance(q, grid.data[t]));
+          }
+        },
+        interrupter, "distance");
     measured += wave.size();
     for (size_t n = 0; n < wave.size(); ++n) {
       const uint32_t t = wave[n];
@@ -381,31 +278,28 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
 
 // Inside (+1) or outside (-1) of every band texel, w > 1/2 being inside.
 void sign_band(const WindingNumber& winding, const Box& box, const Grid3<float>& grid,
-               const std::vector<uint8_t>& state, const Progress& progress,
+               const std::vector<uint8_t>& state, Interrupter* interrupter,
                std::vector<int8_t>& sign) {
   std::vector<uint32_t> texels;
   for (size_t t = 0; t < state.size(); ++t) {
     if (state[t] == kBand) texels.push_back(static_cast<uint32_t>(t));
   }
-  // Batches between progress reports; each batch runs in parallel.
-  const size_t batch = std::max<size_t>(1 << 16, texels.size() / 50);
-  for (size_t begin = 0; begin < texels.size(); begin += batch) {
-    report(progress, "sign", double(begin) / double(texels.size()));
-    const size_t end = std::min(texels.size(), begin + batch);
-    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end), [&](const auto& range) {
-      for (size_t n = range.begin(); n != range.end(); ++n) {
-        const uint32_t t = texels[n];
-        sign[t] = winding(box.to_object(centre_of(grid, t))) > 0.5 ? 1 : -1;
-      }
-    });
-  }
+  parallel_for(
+      chunks(texels.size()),
+      [&](long chunk) {
+        for (size_t n = chunk * kChunk; n < std::min(texels.size(), (chunk + 1) * kChunk); ++n) {
+          const uint32_t t = texels[n];
+          sign[t] = winding(box.to_object(centre_of(grid, t))) > 0.5 ? 1 : -1;
+        }
+      },
+      interrupter, "sign");
 }
 
 // Propagates the sign from the band through the 6-connected texels beyond it (breadth first,
 // so each takes the sign of its nearest band texel in steps); a region the band does not reach
 // takes the winding number at one of its texels.
 void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<float>& grid,
-                      std::vector<int8_t>& sign) {
+                      std::vector<int8_t>& sign, Interrupter* interrupter) {
   std::vector<uint32_t> queue;
   queue.reserve(grid.size());
   for (size_t t = 0; t < sign.size(); ++t) {
@@ -413,6 +307,7 @@ void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<
   }
   auto flood = [&](size_t head) {
     for (; head < queue.size(); ++head) {
+      if (head % (kChunk * 64) == 0) raywarp::poll(interrupter);
       const uint32_t t = queue[head];
       for_each_face_neighbour(grid, t, [&](uint32_t u) {
         if (sign[u] == 0) {
@@ -425,6 +320,7 @@ void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<
   flood(0);
   for (size_t t = 0; t < sign.size(); ++t) {
     if (sign[t] != 0) continue;
+    raywarp::poll(interrupter);
     sign[t] = winding(box.to_object(centre_of(grid, uint32_t(t)))) > 0.5 ? 1 : -1;
     const size_t head = queue.size();
     queue.push_back(static_cast<uint32_t>(t));
@@ -435,7 +331,7 @@ void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<
 }  // namespace
 
 DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
-                                size_t memory_budget_bytes, const Progress& progress) {
+                                size_t memory_budget_bytes, Interrupter* interrupter) {
   const auto start = std::chrono::steady_clock::now();
   check_spec(spec);
   const GridShape shape = grid_shape(box, spec);
@@ -449,18 +345,18 @@ DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const Implicit
   result.sign_method = "generalised winding number (Barill et al. 2018)";
   Grid3<float>& grid = result.grid;
 
-  report(progress, "distance", 0.0);
+  raywarp::poll(interrupter, "distance", 0.0);
   std::vector<uint8_t> state;
-  unsigned_distances(mesh, box, spec, progress, grid, state, result.background);
-  report(progress, "distance", 1.0);
+  unsigned_distances(mesh, box, spec, interrupter, grid, state, result.background);
+  raywarp::poll(interrupter, "distance", 1.0);
 
   // The whole mesh decides inside, also its parts beyond the box: a hole or a cut there must
   // not turn the inside out. Queries go to object space, where the mesh is.
   const WindingNumber winding(mesh);
   std::vector<int8_t> sign(grid.size(), 0);
-  sign_band(winding, box, grid, state, progress, sign);
-  sign_beyond_band(winding, box, grid, sign);
-  report(progress, "sign", 1.0);
+  sign_band(winding, box, grid, state, interrupter, sign);
+  sign_beyond_band(winding, box, grid, sign, interrupter);
+  raywarp::poll(interrupter, "sign", 1.0);
 
   long active = 0;
   for (size_t t = 0; t < grid.size(); ++t) {

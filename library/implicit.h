@@ -2,6 +2,7 @@
 #pragma once
 #include <functional>
 
+#include "base/interrupt.h"
 #include "base/box.h"
 #include "library/mesh.h"
 #include "library/scene.h"
@@ -9,18 +10,16 @@
 
 namespace raywarp {
 
-// Progress in [0, 1] with a stage name; return false to cancel (the bake then throws Error).
-using Progress = std::function<bool(const char* stage, double fraction)>;
-
 // Builds the distance grid of `mesh` over `box` (its local frame) plus spec.margin_voxels, with
 // spec.resolution voxels along the box's longest side. OpenVDB's narrow-band mesh-to-volume
 // (unsigned, on the triangles near the box) locates the band; values of 1.5 voxels or more,
 // where OpenVDB's band expansion measures to a near rather than the nearest triangle, are
 // measured again exactly. The sign (inside) comes from the generalised winding number of the
 // whole mesh, so open meshes (holes, several shells) get a
-// sensible inside. Throws Error when the grid would exceed `memory_budget_bytes`.
+// sensible inside. Progress in stages "distance" then "sign"; Cancelled when `interrupter` is
+// cancelled. Throws Error when the grid would exceed `memory_budget_bytes`.
 DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
                                 size_t memory_budget_bytes = size_t(2) << 30,
-                                const Progress& progress = {});
+                                Interrupter* interrupter = nullptr);
 
 }  // namespace raywarp

@@ -81,37 +81,7 @@ Box read_box_geometry(const JsonReader& r, const json& j, const std::string& fie
   return axis_aligned ? read_min_max(r, j, field) : read_centred(r, j, field);
 }
 
-const char* const kDeformerTypes = "twist, bend, peel, incision, box_cut, control_points";
-constexpr size_t kMaxControlPoints = 1024;  // the interpolant's dense solve grows as n^3
 constexpr size_t kMaxComposed = 8;
-
-bool is_cut(const DeformerSpec& d) {
-  return d.type == "peel" || d.type == "incision" || d.type == "box_cut";
-}
-
-int read_axis(const JsonReader& r, const json& j, const std::string& field, const char* key,
-              const std::string& hint) {
-  std::string axis = r.one_of(r.required(j, field, key, hint), child(field, key), {"x", "y", "z"});
-  return axis[0] - 'x';
-}
-
-// `from` of peel and incision: a face of the box on another axis than `axis`.
-void read_from_face(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
-  std::string face =
-      r.one_of(r.required(j, field, "from", "give a face of the box: +x, -x, +y, -y, +z, -z"),
-               child(field, "from"), {"+x", "-x", "+y", "-y", "+z", "-z"});
-  d.from_side = face[0] == '+' ? 1 : -1;
-  d.from_axis = face[1] - 'x';
-  if (d.from_axis != d.axis) return;
-  std::string others;
-  for (int a = 0; a < 3; ++a)
-    if (a != d.axis)
-      for (const char* side : {"+", "-"})
-        others += (others.empty() ? "" : ", ") + std::string(side) + char('x' + a);
-  r.fail(child(field, "from"), j["from"],
-         "must be a face on another axis than " + child(field, "axis") + " = \"" +
-             char('x' + d.axis) + "\"; allowed: " + others);
-}
 
 // A length that must be > 0, any finite size.
 double positive(const JsonReader& r, const json& j, const std::string& field, const char* key,
@@ -120,130 +90,10 @@ double positive(const JsonReader& r, const json& j, const std::string& field, co
                   {0.0, std::numeric_limits<double>::infinity(), true});
 }
 
-void read_peel(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
-  r.check_keys(j, field, {"type", "axis", "from", "angle_deg", "thickness", "radius", "hinge"});
-  d.axis = read_axis(r, j, field, "axis", "give the curl axis, one of x, y, z");
-  read_from_face(r, j, field, d);
-  d.angle_deg = r.number(r.required(j, field, "angle_deg", "give the curl angle in degrees"),
-                         child(field, "angle_deg"), {0.0, 180.0, true, false});
-  d.thickness = positive(r, j, field, "thickness", "give the layer thickness in object units");
-  d.radius = positive(r, j, field, "radius", "give the curl radius in object units");
-  if (j.contains("hinge")) d.hinge = r.number(j["hinge"], child(field, "hinge"), Interval{});
-}
-
-void read_incision(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
-  r.check_keys(j, field, {"type", "axis", "from", "depth", "opening"});
-  d.axis = read_axis(r, j, field, "axis", "give the normal of the cut plane, one of x, y, z");
-  read_from_face(r, j, field, d);
-  d.depth = positive(r, j, field, "depth", "give the depth of the cut in object units");
-  d.opening = positive(r, j, field, "opening", "give the width of the gap in object units");
-}
-
-void read_wedge(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
-  r.require_object(j, field, "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}");
-  r.check_keys(j, field, {"axis", "from_deg", "angle_deg"});
-  d.wedge_axis = read_axis(r, j, field, "axis", "give the wedge's axis, one of x, y, z");
-  if (j.contains("from_deg"))
-    d.wedge_from_deg = r.number(j["from_deg"], child(field, "from_deg"), Interval{});
-  d.wedge_angle_deg =
-      r.number(r.required(j, field, "angle_deg", "give the wedge's angle in degrees"),
-               child(field, "angle_deg"), {0.0, 180.0, true, false});
-}
-
-void read_box_cut(const JsonReader& r, const json& j, const std::string& field, DeformerSpec& d) {
-  r.check_keys(j, field, {"type", "sub_min", "sub_max", "wedge"});
-  if (j.contains("sub_min"))
-    d.sub_min = r.vec3(j["sub_min"], child(field, "sub_min"), closed(0, 1));
-  if (j.contains("sub_max"))
-    d.sub_max = r.vec3(j["sub_max"], child(field, "sub_max"), closed(0, 1));
-  for (int a = 0; a < 3; ++a) {
-    if (d.sub_max[a] > d.sub_min[a]) continue;
-    if (j.contains("sub_max"))
-      r.fail(element(child(field, "sub_max"), a), j["sub_max"][a],
-             "must be greater than " + element(child(field, "sub_min"), a) + " = " +
-                 format_number(d.sub_min[a]));
-    r.fail(element(child(field, "sub_min"), a), j["sub_min"][a],
-           "must be less than " + element(child(field, "sub_max"), a) + " = " +
-               format_number(d.sub_max[a]) + " (the default: the box's max face)");
-  }
-  if (j.contains("wedge")) read_wedge(r, j["wedge"], child(field, "wedge"), d);
-}
-
-std::string describe_box(const Box& b);
-
-void read_control_points(const JsonReader& r, const json& j, const std::string& field,
-                         const Box& box, DeformerSpec& d) {
-  r.check_keys(j, field, {"type", "points", "radius", "pinned"});
-  const std::string points = child(field, "points");
-  const json& list = r.required(j, field, "points",
-                                "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs");
-  if (!list.is_array() || list.empty() || list.size() > kMaxControlPoints)
-    r.fail(points, list,
-           "must be a list of 1 to " + std::to_string(kMaxControlPoints) +
-               " {\"from\": [x, y, z], \"to\": [x, y, z]} pairs (object coordinates)");
-  for (size_t i = 0; i < list.size(); ++i) {
-    const std::string at = element(points, i);
-    r.require_object(list[i], at, "{\"from\": [x, y, z], \"to\": [x, y, z]}");
-    r.check_keys(list[i], at, {"from", "to"});
-    PointPair pair;
-    pair.source = box.to_local(
-        r.vec3(r.required(list[i], at, "from", "give the point's undeformed position [x, y, z]"),
-               child(at, "from"), closed(-kMaxCoordinate, kMaxCoordinate)));
-    const Eigen::Vector3d outside = pair.source.cwiseAbs() - box.half_extents * (1.0 + 1e-9);
-    if (outside.maxCoeff() > 0.0)
-      r.fail(child(at, "from"), list[i]["from"],
-             "must lie in the box (" + describe_box(box) +
-                 "): a control point moves the part of the mesh inside its box");
-    pair.target = box.to_local(
-        r.vec3(r.required(list[i], at, "to", "give the point's deformed position [x, y, z]"),
-               child(at, "to"), closed(-kMaxCoordinate, kMaxCoordinate)));
-    d.points.push_back(pair);
-  }
-  if (j.contains("radius"))
-    d.influence_radius =
-        r.number(j["radius"], child(field, "radius"), {0.0, kMaxCoordinate, false, false, true});
-  if (j.contains("pinned")) {
-    const std::string pinned = child(field, "pinned");
-    const std::string allowed = "must be a list of box faces such as [\"-y\", \"+y\"]";
-    if (!j["pinned"].is_array()) r.fail(pinned, j["pinned"], allowed);
-    for (size_t i = 0; i < j["pinned"].size(); ++i) {
-      std::string face =
-          r.one_of(j["pinned"][i], element(pinned, i), {"-x", "+x", "-y", "+y", "-z", "+z"});
-      d.pinned[2 * (face[1] - 'x') + (face[0] == '+' ? 1 : 0)] = true;
-    }
-  }
-}
-
-DeformerSpec read_one_deformer(const JsonReader& r, const json& j, const std::string& field,
-                               const Box& box) {
-  r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
-  const json& type = r.required(j, field, "type", std::string("give one of ") + kDeformerTypes);
-  DeformerSpec d;
-  d.type = r.one_of(type, child(field, "type"),
-                    {"twist", "bend", "peel", "incision", "box_cut", "control_points"});
-  if (d.type == "peel") {
-    read_peel(r, j, field, d);
-  } else if (d.type == "incision") {
-    read_incision(r, j, field, d);
-  } else if (d.type == "box_cut") {
-    read_box_cut(r, j, field, d);
-  } else if (d.type == "control_points") {
-    read_control_points(r, j, field, box, d);
-  } else {
-    r.check_keys(j, field, {"type", "axis", "angle_deg"});
-    d.axis = read_axis(r, j, field, "axis", "give one of x, y, z");
-    const json& angle = r.required(j, field, "angle_deg", "give the angle in degrees");
-    Interval range;  // twist: any finite angle
-    if (d.type == "bend") range = {-360.0, 360.0, true, true};
-    d.angle_deg = r.number(angle, child(field, "angle_deg"), range);
-  }
-  return d;
-}
-
 // One deformer object, or a list of them applied in order (continuous deformers only).
 void read_deformers(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
   if (!j.is_array()) {
-    b.deformer = read_one_deformer(r, j, field, b.box);
+    b.deformer = read_deformer(r, j, field, b.box);
     return;
   }
   if (j.empty() || j.size() > kMaxComposed)
@@ -251,11 +101,13 @@ void read_deformers(const JsonReader& r, const json& j, const std::string& field
            "must be one deformer object or a list of 1 to " + std::to_string(kMaxComposed) +
                " deformers applied in order");
   for (size_t i = 0; i < j.size(); ++i) {
-    DeformerSpec d = read_one_deformer(r, j[i], element(field, i), b.box);
+    DeformerSpec d = read_deformer(r, j[i], element(field, i), b.box);
     if (is_cut(d) && j.size() > 1)
       r.fail(child(element(field, i), "type"), j[i]["type"],
-             "a cut (peel, incision, box_cut) cannot be composed with other deformers; give it a "
-             "box of its own, or list only twist, bend and control_points");
+             "a cut (" + cut_type_names() +
+                 ") cannot be composed with other deformers; give it a box of its own, or list "
+                 "only " +
+                 continuous_type_names());
     if (i == 0)
       b.deformer = std::move(d);
     else
@@ -312,7 +164,7 @@ void read_cut_settings(const JsonReader& r, const json& j, const std::string& fi
     for (const char* key : {"cut_mode", "shell_thickness", "alpha"})
       if (j.contains(key))
         r.fail(child(field, key), j[key],
-               std::string(key) + " applies to cut deformers (peel, incision, box_cut); " +
+               std::string(key) + " applies to cut deformers (" + cut_type_names() + "); " +
                    child(field, "deformer.type") + " is " + b.deformer.type);
     return;
   }
@@ -343,8 +195,8 @@ BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   b.box = read_box_geometry(r, j, field);
   read_deformers(r,
                  r.required(j, field, "deformer",
-                            "give {\"type\": \"twist\"|\"bend\"|\"peel\"|\"incision\"|"
-                            "\"box_cut\"|\"control_points\", ...} or a list of them"),
+                            "give {\"type\": ..., ...} (type one of " + deformer_type_names() +
+                                ") or a list of them"),
                  child(field, "deformer"), b);
   read_cut_settings(r, j, field, b);
   if (j.contains("implicit"))
@@ -596,11 +448,11 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
   if (scene.render.sampling == "bounded")
     for (size_t i = 0; i < scene.boxes.size(); ++i) {
       const std::string& type = scene.boxes[i].deformer.type;
-      if (type == "peel" || type == "incision" || type == "box_cut")
+      if (is_cut(scene.boxes[i].deformer))
         throw Error(path.string() + ": render.sampling = \"bounded\": boxes[" + std::to_string(i) +
                     "].deformer.type is \"" + type +
-                    "\", a cut; bounded tracing needs a continuous deformation (twist, bend): use "
-                    "linear, threshold or jacobian");
+                    "\", a cut; bounded tracing needs a continuous deformation (" +
+                    continuous_type_names() + "): use linear, threshold or jacobian");
       if (scene.boxes[i].implicit.type == "depth_cube")
         throw Error(path.string() + ": render.sampling = \"bounded\": boxes[" + std::to_string(i) +
                     "].implicit.type is \"depth_cube\", whose |f| is no distance bound; bounded "

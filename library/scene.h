@@ -11,45 +11,11 @@
 #include <vector>
 
 #include "base/box.h"
+#include "deformers/registry.h"
 #include "library/camera.h"
 #include "library/textures.h"
 
 namespace raywarp {
-
-// A control point of the "control_points" deformer: where a point of the undeformed mesh goes, in
-// the box's local frame (the scene gives object coordinates; load_scene converts them).
-struct PointPair {
-  Eigen::Vector3d source = Eigen::Vector3d::Zero();
-  Eigen::Vector3d target = Eigen::Vector3d::Zero();
-};
-
-struct DeformerSpec {
-  std::string type;      // "twist" | "bend" | "peel" | "incision" | "box_cut" | "control_points"
-  int axis = 1;          // 0 = x, 1 = y, 2 = z (twist, bend: the axis; peel: the curl axis;
-                         // incision: the normal of the cut plane)
-  double angle_deg = 0;  // twist: any; bend: (-360, 360); peel: (0, 180]
-  // peel and incision: the face the cut enters through, e.g. "+y" (axis, side).
-  int from_axis = 1;
-  int from_side = 1;
-  double thickness = 0;  // peel: layer thickness, (0, 2 h_from)
-  double radius = 0;     // peel: curl radius, > 0
-  double hinge = 0;      // peel: where the flap starts along the peel direction, [-h_a, h_a)
-  double depth = 0;      // incision: how far the cut reaches from its face, (0, 2 h_from]
-  double opening = 0;    // incision: width of the gap at the face, (0, 2 h_normal)
-  // box_cut: the removed sub-box as fractions of the box along its local axes, 0 = min face,
-  // 1 = max face (default the whole box), and an optional wedge about an axis through the box
-  // centre, from wedge_from_deg over wedge_angle_deg (0 = no wedge).
-  Eigen::Vector3d sub_min = Eigen::Vector3d::Zero();
-  Eigen::Vector3d sub_max = Eigen::Vector3d::Ones();
-  int wedge_axis = 1;
-  double wedge_from_deg = 0;
-  double wedge_angle_deg = 0;  // (0, 180] when given
-  // control_points: the pairs, the radius of influence of each point (object units; 0 = every
-  // point acts on the whole box) and the faces held fixed, in the order -x, +x, -y, +y, -z, +z.
-  std::vector<PointPair> points;
-  double influence_radius = 0;
-  std::array<bool, 6> pinned{};
-};
 
 struct ImplicitSpec {
   std::string type = "sdf";    // "sdf" (distance grid) | "depth_cube" (library/depth_cube.h)

@@ -12,8 +12,8 @@
 namespace raywarp {
 
 // Implicit surface of S_D (the part of the mesh inside the box): signed distance,
-// f > 0 inside, f < 0 outside, |grad f| ~ 1, object units (Correa & Silver's sign; OpenVDB's is
-// the opposite and is flipped at bake time). The grid covers the box plus a margin. Within the
+// f > 0 inside, f < 0 outside, |grad f| ~ 1, object units (docs/conventions.md#sign-of-f; OpenVDB
+// gives unsigned distances only). The grid covers the box plus a margin. Within the
 // narrow band of half width `band_voxels` the values are distances; beyond it they are
 // +-`background` (= band_voxels * spacing), a lower bound of the true distance, so steps of
 // |f| stay safe.
@@ -132,6 +132,12 @@ struct BoxTextures {
   // by round_to_half, so the CPU reference reads what the GPU does).
   bool half_precision = false;
 };
+
+// The one place that decides whether a box is sphere traced with Lipschitz-bounded steps: the
+// scene asks for render.sampling "bounded" and the box's deformation is continuous and moves
+// something (a cut's D jumps, so no Lipschitz bound holds across it; a box cut moves nothing).
+// The bake then bakes the box's StepBounds, and the renderer picks the bounded shader variant.
+bool traces_bounded(const std::string& sampling, bool has_cut, bool moves_nothing);
 
 // x rounded to the nearest IEEE half-precision value (ties to even), as a float; magnitudes
 // beyond the largest half (65504) are clamped to it, so the result stays finite.

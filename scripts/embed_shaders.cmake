@@ -1,4 +1,6 @@
 # Writes OUT, a C++ file that holds every shaders/*.glsl as a string, looked up by file name.
+# gl::ShaderFiles numbers them 1, 2, ... by name for the #line directives of the assembly
+# (gl/shader_sources.h), so a file's number is its place in the sorted list of names.
 file(GLOB shaders ${SHADER_DIR}/*.glsl)
 list(SORT shaders)
 set(body "// Generated from shaders/*.glsl by scripts/embed_shaders.cmake. Do not edit.\n")
@@ -8,6 +10,10 @@ string(APPEND body "  static const std::map<std::string, std::string> sources = 
 foreach(path ${shaders})
   get_filename_component(name ${path} NAME)
   file(READ ${path} text)
+  string(FIND "${text}" ")raywarp_glsl\"" delimiter)
+  if(NOT delimiter EQUAL -1)
+    message(FATAL_ERROR "${name} holds the raw string delimiter )raywarp_glsl\"")
+  endif()
   string(APPEND body "    {\"${name}\", R\"raywarp_glsl(${text})raywarp_glsl\"},\n")
 endforeach()
 string(APPEND body "  };\n  return sources;\n}\n}  // namespace raywarp::gl\n")

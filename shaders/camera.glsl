@@ -1,4 +1,4 @@
-// The camera as both passes see it. Linear depth follows DESIGN: dot(p - eye, view_dir).
+// The camera as both passes see it. Linear depth dot(p - eye, view_dir): docs/conventions.md#depth.
 uniform mat4 u_view_proj;      // object -> clip
 uniform mat4 u_inv_view_proj;  // clip -> object
 uniform vec3 u_eye;            // object space

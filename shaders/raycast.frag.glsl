@@ -2,13 +2,21 @@
 // Everything is in the box's local frame (object units). The same algorithm, in double, is
 // raywarp::ray_cast_box in verify/reference.cpp: keep the two in step.
 //
-// Variants (defines from the renderer): RAYWARP_CUT 0 (none), 1 (hollow), 2 (solid),
-// 3 (thick shell); RAYWARP_MOVES_NOTHING (D = 0: no deformation texture is read, and a sample
-// just beyond the box after one inside it reads the distance grid, for the caps of a box cut);
-// RAYWARP_SKIP (empty-space skipping); RAYWARP_TEXTURE_MAP (D read at M p', eq. 2's mapping); RAYWARP_SAMPLING 0 (linear), 1 (threshold), 2 (jacobian),
-// 3 (bounded: sphere tracing with Lipschitz-bounded steps; continuous deformations only);
-// RAYWARP_IMPLICIT 0 (distance grid), 1 (depth-map cube, library/depth_cube.h: no skipping by f,
-// whose |f| is no distance bound).
+// Variants: the renderer #defines the macros of the box's features (gl/raycast_tables.h,
+// kFeatures): one of RAYWARP_SAMPLING_LINEAR, _THRESHOLD, _JACOBIAN, _BOUNDED (sphere tracing with
+// Lipschitz-bounded steps; continuous deformations only); RAYWARP_CUT (an alpha map) with one of
+// RAYWARP_CUT_HOLLOW, _SOLID, _THICK (a shell of thickness tau), or none; RAYWARP_MOVES_NOTHING
+// (D = 0: no deformation texture is read, and a sample just beyond the box after one inside it
+// reads the distance grid, for the caps of a box cut); RAYWARP_SKIP (empty-space skipping);
+// RAYWARP_TEXTURE_MAP (D read at M p', eq. 2's mapping); RAYWARP_DEPTH_CUBE (the implicit is a
+// depth-map cube, library/depth_cube.h, not the distance grid: no skipping by f, whose |f| is no
+// distance bound). The samplers' units are kTextureUnits'.
+#if defined(RAYWARP_SAMPLING_LINEAR) + defined(RAYWARP_SAMPLING_THRESHOLD) + defined(RAYWARP_SAMPLING_JACOBIAN) + defined(RAYWARP_SAMPLING_BOUNDED) != 1
+#error a variant has exactly one RAYWARP_SAMPLING_* feature
+#endif
+#if defined(RAYWARP_CUT) != defined(RAYWARP_CUT_HOLLOW) + defined(RAYWARP_CUT_SOLID) + defined(RAYWARP_CUT_THICK)
+#error a variant has RAYWARP_CUT and one RAYWARP_CUT_* mode, or neither
+#endif
 #include "camera.glsl"
 #include "shading.glsl"
 uniform mat4 u_object_to_box;
@@ -16,7 +24,7 @@ uniform mat3 u_box_to_object_dir;
 uniform vec3 u_half_extents;
 uniform vec3 u_region_lower;      // where rays are cast
 uniform vec3 u_region_upper;
-#if RAYWARP_IMPLICIT == 1
+#ifdef RAYWARP_DEPTH_CUBE
 uniform sampler2DArray u_depth;   // depth maps H_k, layer k: faces -x, +x, -y, +y, -z, +z
 uniform vec2 u_depth_origin[3];   // per axis: lower corner of its maps' texel grid on the face
 uniform vec2 u_depth_last[3];     // per axis: its maps' last texel centre (n_u - 1, n_v - 1)
@@ -41,21 +49,21 @@ uniform float u_def_spacing;
 #ifdef RAYWARP_TEXTURE_MAP
 uniform mat4 u_texture_map;       // M of eq. 2: D is read at M p'
 #endif
-#if RAYWARP_CUT != 0
+#ifdef RAYWARP_CUT
 uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance to its boundary
 uniform vec3 u_alpha_origin;
 uniform vec3 u_alpha_size;
 uniform float u_alpha_spacing;
 uniform vec3 u_cut_colour;
 #endif
-#if RAYWARP_CUT == 3
+#ifdef RAYWARP_CUT_THICK
 uniform float u_thickness;        // tau of eq. 7
 #endif
-#if RAYWARP_SAMPLING == 1
+#ifdef RAYWARP_SAMPLING_THRESHOLD
 uniform float u_threshold;        // object units
 uniform float u_fine_factor;
 #endif
-#if RAYWARP_SAMPLING == 3
+#ifdef RAYWARP_SAMPLING_BOUNDED
 uniform sampler3D u_bricks;       // per brick of D: bound of |I + J_D| there and around (NEAREST)
 uniform vec3 u_brick_origin;      // D's first texel centre
 uniform float u_brick_spacing;    // brick side, object units
@@ -74,7 +82,7 @@ layout(location = 1) out float out_depth;
 
 const float kSqrt3 = 1.7320508;
 
-#if RAYWARP_IMPLICIT == 1
+#ifdef RAYWARP_DEPTH_CUBE
 // The depth-map cube, as depth_cube_value (library/depth_cube.cpp): per face f_k = d_k - H_k, d_k
 // the depth of p from the face; f = min |f_k|, negated unless every f_k > 0. H at the map's
 // texel centres, clamped to its outer centres: clamp-to-edge within its corner of the layer.
@@ -104,7 +112,7 @@ vec4 deformation(vec3 p_def) {
   return texture(u_deformation, (p_def - u_def_origin) / u_def_size);
 }
 #endif
-#if RAYWARP_CUT != 0
+#ifdef RAYWARP_CUT
 float alpha_at(vec3 p_def) { return texture(u_alpha, (p_def - u_alpha_origin) / u_alpha_size).r; }
 #endif
 
@@ -127,7 +135,7 @@ Sample sample_at(vec3 p_def, bool beyond_ok) {
   s.valid = d.w >= 0.5 && in_box(p);
   s.f = s.valid ? distance_at(p) : -u_background;
 #endif
-#if RAYWARP_CUT != 0
+#ifdef RAYWARP_CUT
   s.a = alpha_at(p_def);
 #else
   s.a = -1.0;
@@ -137,7 +145,7 @@ Sample sample_at(vec3 p_def, bool beyond_ok) {
 
 // The surface function: f, or eq. 7's shell f^ = tau - f where f > tau / 2.
 float surface(float f) {
-#if RAYWARP_CUT == 3
+#ifdef RAYWARP_CUT_THICK
   return min(f, u_thickness - f);
 #else
   return f;
@@ -148,7 +156,7 @@ float surface(float f) {
 // finds the first point inside the object and outside the cut, as section 5.1.2's search does).
 float value(Sample s) {
   if (!s.valid) return -u_background;
-#if RAYWARP_CUT == 2 || RAYWARP_CUT == 3
+#if defined(RAYWARP_CUT_SOLID) || defined(RAYWARP_CUT_THICK)
   return min(surface(s.f), -s.a);
 #else
   return s.f;
@@ -156,7 +164,7 @@ float value(Sample s) {
 }
 
 // The value whose nearness to 0 the threshold method watches.
-#if RAYWARP_CUT == 1
+#ifdef RAYWARP_CUT_HOLLOW
 #define RAYWARP_THRESHOLD_VALUE s.f
 #else
 #define RAYWARP_THRESHOLD_VALUE value(s)
@@ -168,27 +176,27 @@ float value(Sample s) {
 // sqrt(3) u_lipschitz-Lipschitz outside the cut.
 float skip_distance(Sample s) {
   if (!s.valid) return 0.0;
-#if RAYWARP_CUT != 0
+#ifdef RAYWARP_CUT
   if (s.a > 0.0) return s.a / kSqrt3;  // inside the cut: A stays > 0 (section 6.2)
 #endif
-#if RAYWARP_IMPLICIT == 1
+#ifdef RAYWARP_DEPTH_CUBE
   float skip = 0.0;                    // a depth cube's |f| bounds no distance: no skip by it
 #else
-#if RAYWARP_CUT == 1
+#ifdef RAYWARP_CUT_HOLLOW
   float room = abs(s.f);               // a thin shell: no sign change of f
 #else
   float room = -surface(s.f);          // outside the solid: f^ stays < 0
 #endif
   float skip = room / (kSqrt3 * u_lipschitz);
 #endif
-#if RAYWARP_CUT != 0 && !defined(RAYWARP_MOVES_NOTHING)
+#if defined(RAYWARP_CUT) && !defined(RAYWARP_MOVES_NOTHING)
   skip = min(skip, -s.a - u_cut_margin);  // the bound holds only away from the cut
 #endif
   return skip;
 }
 #endif
 
-#if RAYWARP_SAMPLING == 2 && !defined(RAYWARP_MOVES_NOTHING)
+#if defined(RAYWARP_SAMPLING_JACOBIAN) && !defined(RAYWARP_MOVES_NOTHING)
 // Eq. 4: dt = ds / |(I + J_D) v|, the step whose preimage moves by ds; J_D by central
 // differences of D. Clamped to [ds / 16, 4 ds] so that every ray stays bounded.
 float jacobian_step(vec3 p_def, vec3 v) {
@@ -198,7 +206,7 @@ float jacobian_step(vec3 p_def, vec3 v) {
 }
 #endif
 
-#if RAYWARP_SAMPLING == 3
+#ifdef RAYWARP_SAMPLING_BOUNDED
 // g(p') = min(f(p), b(p), (w - 1/2) / L_w) at p = p' + D(p') (library/textures.h, StepBounds):
 // > 0 exactly where the linear search's sample is inside; b is the distance to the box faces.
 float bounded_g(vec3 p_def, out vec3 p) {
@@ -248,7 +256,7 @@ vec3 deformed_normal(vec3 p_def) {
 #endif
 }
 
-#if RAYWARP_CUT != 0
+#ifdef RAYWARP_CUT
 // The cut face's outward normal (into the cut): grad A (eq. 6).
 vec3 alpha_gradient(vec3 p_def) {
   float h = u_alpha_spacing;
@@ -279,7 +287,7 @@ void main() {
   vec3 cross_lo = (-u_half_extents - o) * inv - before, cross_hi = (u_half_extents - o) * inv - before;
 
   float t = t0, lo = t0, hi = t0;
-#if RAYWARP_SAMPLING == 3
+#ifdef RAYWARP_SAMPLING_BOUNDED
   // Sphere tracing of g: a step of |g| / L, at most a brick side, never passes a point where
   // g > 0; plus the samples before the face planes, where the seam tolerance applies.
   vec3 p_pre;
@@ -311,7 +319,7 @@ void main() {
 #else
   bool was_in_box = in_box(o + t0 * d);
   Sample s = sample_at(o + t0 * d, false);
-#if RAYWARP_CUT == 1
+#ifdef RAYWARP_CUT_HOLLOW
   bool hit = false, front = true;
 #else
   bool hit = value(s) > 0.0;
@@ -319,9 +327,9 @@ void main() {
   // Linear search, bounded by u_max_steps (+ the 6 face samples).
   for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
     float advance = u_step;
-#if RAYWARP_SAMPLING == 1
+#ifdef RAYWARP_SAMPLING_THRESHOLD
     if (s.valid && abs(RAYWARP_THRESHOLD_VALUE) < u_threshold) advance = u_step * u_fine_factor;
-#elif RAYWARP_SAMPLING == 2 && !defined(RAYWARP_MOVES_NOTHING)
+#elif defined(RAYWARP_SAMPLING_JACOBIAN) && !defined(RAYWARP_MOVES_NOTHING)
     advance = jacobian_step(o + t * d, d);
 #endif
 #ifdef RAYWARP_SKIP
@@ -336,7 +344,7 @@ void main() {
     float tn = at_face ? next_crossing : target;
     vec3 pn = o + tn * d;
     Sample sn = sample_at(pn, was_in_box);
-#if RAYWARP_CUT == 1
+#ifdef RAYWARP_CUT_HOLLOW
     // A thin shell: any change of sign of f, kept where it lies outside the cut (section 5.1.1).
     if (s.valid && sn.valid && (s.f > 0.0) != (sn.f > 0.0)) {
       bool inside = s.f > 0.0;
@@ -379,7 +387,7 @@ void main() {
   }
 #endif
   if (!hit) discard;
-#if RAYWARP_CUT != 1
+#ifndef RAYWARP_CUT_HOLLOW
   // Binary refinement between the last outside and the first inside sample.
   for (int i = 0; i < u_refine_steps; ++i) {
     float mid = 0.5 * (lo + hi);
@@ -391,19 +399,19 @@ void main() {
 
   vec3 albedo = u_albedo;
   vec3 normal = deformed_normal(p_def);
-#if RAYWARP_CUT == 1
+#ifdef RAYWARP_CUT_HOLLOW
   if (!front) {  // the inside of the shell
     normal = -normal;
     albedo = u_inside_colour;
   }
-#elif RAYWARP_CUT == 2 || RAYWARP_CUT == 3
+#elif defined(RAYWARP_CUT_SOLID) || defined(RAYWARP_CUT_THICK)
   // Eq. 6: on the object's surface the normal of eq. 5, on the cut face grad A.
   Sample sh = sample_at(p_def, true);
   if (surface(sh.f) > -sh.a) {
     normal = alpha_gradient(p_def);
     albedo = u_cut_colour;
   }
-#if RAYWARP_CUT == 3
+#ifdef RAYWARP_CUT_THICK
   else if (sh.f > 0.5 * u_thickness) {  // the shell's inner surface
     normal = -normal;
     albedo = u_inside_colour;

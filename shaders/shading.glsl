@@ -3,6 +3,8 @@
 uniform vec3 u_albedo;         // linear RGB
 uniform vec3 u_inside_colour;  // the inside of a shell, seen through a cut
 
+// Must match the C++ srgb_encode (library/image.h), which the CPU reference and the
+// renderer's clear colour use.
 vec3 srgb_encode(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));

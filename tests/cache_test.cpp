@@ -98,8 +98,8 @@ TEST(BakeCache, SecondPreparationBakesNothing) {
     EXPECT_EQ(a.alpha.grid.data, b.alpha.grid.data);
     EXPECT_EQ(a.lipschitz, b.lipschitz);
     EXPECT_EQ(a.region.min(), b.region.min());
-    EXPECT_EQ(first.boxes[0].texture_error, second.boxes[0].texture_error);
-    EXPECT_EQ(first.boxes[0].warnings, second.boxes[0].warnings);
+    EXPECT_EQ(first.boxes[0].report.texture_error, second.boxes[0].report.texture_error);
+    EXPECT_EQ(first.boxes[0].report.warning_messages(), second.boxes[0].report.warning_messages());
   }
   // A new angle re-bakes the deformation texture only.
   Scene twist = load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/bunny_twist.json");
@@ -111,26 +111,63 @@ TEST(BakeCache, SecondPreparationBakesNothing) {
   BakeCache::clear(dir);
 }
 
+// Every declared parameter of every registered type enters the key: changing any one of them (as
+// a scene would) changes it, so a new parameter cannot serve a stale bake.
 TEST(BakeCache, KeysNameEveryDeformerParameter) {
-  BoxSpec a;
-  a.deformer.type = "twist";
-  const std::string base = deformer_key(a);
-  auto differs = [&](auto change) {
-    BoxSpec b = a;
-    change(b);
-    return deformer_key(b) != base;
+  auto changed = [](const ParamDecl& p, DeformerSpec& d) {
+    switch (p.kind) {
+      case ParamKind::Number:
+        d.*std::get<double DeformerSpec::*>(p.field) += 1e-12;
+        break;
+      case ParamKind::Axis: {
+        int& a = d.*std::get<int DeformerSpec::*>(p.field);
+        a = (a + 1) % 3;
+        break;
+      }
+      case ParamKind::Face:
+        d.from_side = -d.from_side;
+        break;
+      case ParamKind::Fractions:
+        (d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field)).z() = 0.5;
+        break;
+      case ParamKind::Faces:
+        d.pinned[3] = !d.pinned[3];
+        break;
+      case ParamKind::Points:
+        d.points.push_back({});
+        break;
+      case ParamKind::Group:
+        break;
+    }
   };
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.angle_deg = 1e-12; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.axis = 0; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.hinge = 0.5; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.sub_max.z() = 0.5; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.wedge_angle_deg = 5; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.points.push_back({}); }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.pinned[3] = true; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.deformer.influence_radius = 2; }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.then.push_back(b.deformer); }));
-  EXPECT_TRUE(differs([](BoxSpec& b) { b.box.half_extents.x() = 2; }));
-  EXPECT_FALSE(differs([](BoxSpec& b) { b.box.centre.x() = 2; }));  // D lives in the box frame
+  int checked = 0;
+  for (const DeformerType& type : deformer_types()) {
+    BoxSpec a;
+    a.deformer.type = type.name;
+    const std::string base = deformer_key(a);
+    std::vector<const ParamDecl*> params;
+    for (const ParamDecl& p : type.params) {
+      params.push_back(&p);
+      for (const ParamDecl& c : p.children) params.push_back(&c);
+    }
+    for (const ParamDecl* p : params) {
+      if (p->kind == ParamKind::Group) continue;
+      BoxSpec b = a;
+      changed(*p, b.deformer);
+      EXPECT_NE(deformer_key(b), base) << type.name << "." << p->key;
+      ++checked;
+    }
+    BoxSpec longer = a;
+    longer.then.push_back(a.deformer);
+    EXPECT_NE(deformer_key(longer), base);
+    BoxSpec wider = a;
+    wider.box.half_extents.x() = 2;
+    EXPECT_NE(deformer_key(wider), base);
+    BoxSpec moved = a;
+    moved.box.centre.x() = 2;
+    EXPECT_EQ(deformer_key(moved), base);  // D lives in the box frame
+  }
+  EXPECT_GE(checked, 20);
 }
 
 }  // namespace

@@ -103,7 +103,7 @@ TEST_F(CliTest, StudyQuickWritesItsThreeFiles) {
   Result r = ::run("study " + (dir / "s.json").string() + " --out " + out.string() +
                    " --quick --size 32 --frames 1 --context osmesa");
   ASSERT_EQ(r.code, 0) << r.output;
-  for (const char* f : {"study.csv", "pareto.png", "report.md"})
+  for (const char* f : {"study.csv", "pareto.svg", "report.md"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   EXPECT_NE(r.output.find("[1/1] s:"), std::string::npos) << r.output;
 }

@@ -133,7 +133,7 @@ void check_against_truth(const std::string& scene_file, const std::string& name)
   Camera camera = load_camera(kRoot + "/examples/cameras/front.json");
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
-  for (const auto& b : prepared.boxes) EXPECT_TRUE(b.warnings.empty()) << log.str();
+  for (const auto& b : prepared.boxes) EXPECT_TRUE(b.report.warnings.empty()) << log.str();
 
   context();
   gl::Renderer renderer;

@@ -97,7 +97,7 @@ TEST_P(BoxCutTest, MatchesExactReference) {
   mode = GetParam().mode;
   Prepared p = prepare(GetParam().scene, [](Scene& s) { s.boxes[0].cut_mode = mode; });
   const Camera cam = camera(GetParam().camera);
-  const PreparedBox& box = p.prepared.boxes[0];
+  const BakedBox& box = p.prepared.boxes[0];
   const auto* cut = dynamic_cast<const BoxCut*>(box.deformer.get());
   ASSERT_NE(cut, nullptr);
   gl::FrameStats stats;
@@ -141,7 +141,7 @@ TEST_P(IncisionTest, HollowMatchesSplitGroundTruth) {
   Prepared p =
       prepare("bunny_incision.json", [](Scene& s) { s.boxes[0].cut_mode = CutMode::Hollow; });
   const Camera cam = camera(GetParam());
-  const PreparedBox& box = p.prepared.boxes[0];
+  const BakedBox& box = p.prepared.boxes[0];
   gl::FrameStats stats;
   Image gl = render_gl(p, cam, p.scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
@@ -226,10 +226,10 @@ TEST(Peel, FoldIsReportedAndRenderedFinite) {
   Prepared p = prepare("bunny_peel.json", [](Scene& s) {
     s.boxes[0].deformer.radius = 0.6 * s.boxes[0].deformer.thickness;
   });
-  const PreparedBox& box = p.prepared.boxes[0];
-  EXPECT_TRUE(box.folds.folds());
+  const BakedBox& box = p.prepared.boxes[0];
+  EXPECT_TRUE(box.report.folds.folds());
   bool warned = false;
-  for (const std::string& w : box.warnings) warned = warned || w.find("folds") != std::string::npos;
+  for (const std::string& w : box.report.warning_messages()) warned = warned || w.find("folds") != std::string::npos;
   EXPECT_TRUE(warned);
   for (const Eigen::Vector4f& t : box.textures.deformation.grid.data) ASSERT_TRUE(t.allFinite());
   for (float a : box.textures.alpha.grid.data) ASSERT_TRUE(std::isfinite(a));
@@ -237,8 +237,8 @@ TEST(Peel, FoldIsReportedAndRenderedFinite) {
   Image gl = render_gl(p, camera("front.json"), p.scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   for (float z : gl.depth) EXPECT_FALSE(std::isnan(z));
-  std::printf("[figures] folding peel: folded volume %.4g of %.4g\n", box.folds.folded_volume,
-              box.folds.box_volume);
+  std::printf("[figures] folding peel: folded volume %.4g of %.4g\n", box.report.folds.folded_volume,
+              box.report.folds.box_volume);
 }
 
 // The alpha map is finite and positive exactly where the cut removes material.

@@ -281,7 +281,7 @@ TEST(DepthCubeRender, BunnyTwistMatchesReferenceAndGroundTruth) {
   std::ostringstream log;
   const PreparedScene prepared = prepare_scene(scene, log);
   ASSERT_EQ(prepared.boxes.size(), 1u);
-  const PreparedBox& box = prepared.boxes[0];
+  const BakedBox& box = prepared.boxes[0];
   ASSERT_TRUE(box.textures.uses_depth_cube) << log.str();
   EXPECT_TRUE(box.textures.sdf.grid.data.empty());
   EXPECT_NE(log.str().find("depth cube: 6 maps"), std::string::npos) << log.str();

@@ -32,7 +32,7 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
   scene.render.width = scene.render.height = kSize;
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
-  for (const PreparedBox& box : prepared.boxes) {
+  for (const BakedBox& box : prepared.boxes) {
     for (float v : box.textures.sdf.grid.data) ASSERT_TRUE(std::isfinite(v));
     for (const Eigen::Vector4f& v : box.textures.deformation.grid.data) ASSERT_TRUE(v.allFinite());
     for (float v : box.textures.alpha.grid.data) ASSERT_TRUE(std::isfinite(v));
@@ -48,10 +48,10 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
   write_png("extreme_test_images/" + GetParam() + ".png", gl);
 
   std::string warnings;
-  for (const PreparedBox& box : prepared.boxes)
-    for (const std::string& w : box.warnings) warnings += (warnings.empty() ? "" : "; ") + w;
+  for (const BakedBox& box : prepared.boxes)
+    for (const std::string& w : box.report.warning_messages()) warnings += (warnings.empty() ? "" : "; ") + w;
   std::string error = "no exact ground truth (a cut)";
-  const PreparedBox& box = prepared.boxes[0];
+  const BakedBox& box = prepared.boxes[0];
   if (!box.deformer->has_cut()) {
     auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
     Mesh truth_mesh =

@@ -276,34 +276,37 @@ TEST(Implicit, ProgressReportsBothStagesAndCancels) {
   std::vector<std::string> stages;
   double last = -1;
   std::string last_stage;
-  bake_distance_grid(sphere, box, spec_with(32), size_t(1) << 30,
-                     [&](const char* stage, double fraction) {
-                       EXPECT_GE(fraction, 0.0);
-                       EXPECT_LE(fraction, 1.0);
-                       if (stage != last_stage) {
-                         stages.push_back(stage);
-                         last = -1;
-                       }
-                       EXPECT_GE(fraction, last) << stage;
-                       last = fraction;
-                       last_stage = stage;
-                       return true;
-                     });
+  Interrupter progress(
+      [&](const std::string& stage, double fraction) {
+        EXPECT_GE(fraction, 0.0);
+        EXPECT_LE(fraction, 1.0);
+        if (stage != last_stage) {
+          stages.push_back(stage);
+          last = -1;
+        }
+        EXPECT_GE(fraction, last) << stage;
+        last = fraction;
+        last_stage = stage;
+      },
+      0.0);
+  bake_distance_grid(sphere, box, spec_with(32), size_t(1) << 30, &progress);
   EXPECT_EQ(stages, (std::vector<std::string>{"distance", "sign"}));
+  EXPECT_GT(progress.polls(), 10);
 
   // Cancelled at the start, inside OpenVDB (its interrupter), and in the sign stage.
   const std::vector<std::pair<std::string, double>> cancel_points = {
       {"distance", 0.0}, {"distance", 0.2}, {"sign", 0.0}};
   for (const auto& [cancel_stage, cancel_after] : cancel_points) {
-    try {
-      bake_distance_grid(sphere, box, spec_with(32), size_t(1) << 30,
-                         [&](const char* stage, double fraction) {
-                           return !(stage == cancel_stage && fraction >= cancel_after);
-                         });
-      FAIL() << "not cancelled at " << cancel_stage << " " << cancel_after;
-    } catch (const Error& e) {
-      EXPECT_EQ(std::string(e.what()), "distance grid bake cancelled");
-    }
+    Interrupter* self = nullptr;
+    Interrupter cancelling(
+        [&](const std::string& stage, double fraction) {
+          if (stage == cancel_stage && fraction >= cancel_after) self->cancel();
+        },
+        0.0);
+    self = &cancelling;
+    EXPECT_THROW(bake_distance_grid(sphere, box, spec_with(32), size_t(1) << 30, &cancelling),
+                 Cancelled)
+        << cancel_stage << " " << cancel_after;
   }
 }
 

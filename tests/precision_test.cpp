@@ -47,7 +47,7 @@ TEST_P(PrecisionTest, ErrorAgainstGroundTruth) {
   scene.render.texture_bits = GetParam().bits;
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
-  const PreparedBox& box = prepared.boxes[0];
+  const BakedBox& box = prepared.boxes[0];
   EXPECT_EQ(box.textures.half_precision, GetParam().bits == 16);
   const Camera& camera = *scene.camera;
   gl::Renderer renderer;

@@ -43,8 +43,8 @@ TEST_P(RenderTest, MatchesGroundTruthAndReference) {
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
   ASSERT_EQ(prepared.boxes.size(), 1u);
-  const PreparedBox& box = prepared.boxes[0];
-  EXPECT_TRUE(box.warnings.empty()) << log.str();
+  const BakedBox& box = prepared.boxes[0];
+  EXPECT_TRUE(box.report.warnings.empty()) << log.str();
 
   context();
   gl::Renderer renderer;

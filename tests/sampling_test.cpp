@@ -32,7 +32,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
   if (GetParam() != "threshold") scene.render.step_voxels = kFineStepVoxels;
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);
-  const PreparedBox& box = prepared.boxes[0];
+  const BakedBox& box = prepared.boxes[0];
   const Camera& camera = *scene.camera;
   gl::Renderer renderer;
   renderer.set_mesh(prepared.mesh);

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <limits>
-#include <thread>
 
 #include "base/error.h"
+#include "base/parallel.h"
+#include "library/triangle_bvh.h"
 
 namespace raywarp {
 
@@ -18,12 +18,7 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 // ---------------------------------------------------------------------------------------------
 // Shading: the same as shaders/shading.glsl, so that reference and GL images agree up to
-// rounding.
-
-double srgb_encode(double c) {
-  c = std::clamp(c, 0.0, 1.0);
-  return c < 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
-}
+// rounding (its sRGB encoding: srgb_byte, library/image.h).
 
 // Headlight: the light comes from the eye along the ray.
 Vec3 shade(const Vec3& albedo, const Vec3& normal, const Vec3& ray_direction) {
@@ -45,8 +40,7 @@ Vec3 albedo_of(const RenderSettings& settings, HitKind kind) {
 
 void put_colour(Image& image, int x, int y, const Vec3& linear_rgb) {
   uint8_t* px = &image.rgba[4 * (static_cast<size_t>(y) * image.width + x)];
-  for (int c = 0; c < 3; ++c)
-    px[c] = static_cast<uint8_t>(std::lround(255.0 * srgb_encode(linear_rgb[c])));
+  for (int c = 0; c < 3; ++c) px[c] = srgb_byte(linear_rgb[c]);
   px[3] = 255;
 }
 
@@ -55,186 +49,6 @@ void check_image_size(const char* who, int width, int height) {
     throw Error(std::string(who) + ": image size " + std::to_string(width) + " x " +
                 std::to_string(height) + ": each side must be in [1, 8192]");
 }
-
-// Runs body(i) for i in [0, count) on all hardware threads; body must not throw.
-template <class Body>
-void parallel_for(int count, const Body& body) {
-  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = std::min<unsigned>(threads, static_cast<unsigned>(std::max(count, 1)));
-  std::atomic<int> next{0};
-  auto work = [&] {
-    for (int i = next++; i < count; i = next++) body(i);
-  };
-  std::vector<std::thread> pool;
-  for (unsigned k = 1; k < threads; ++k) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-}
-
-// ---------------------------------------------------------------------------------------------
-// Ray geometry.
-
-// Narrows [t0, t1] to the parameters where o + t d lies in the box [lo, hi] (slab method).
-// Returns false when the interval becomes empty.
-bool clip_to_aabb(const Vec3& o, const Vec3& d, const Vec3& lo, const Vec3& hi, double& t0,
-                  double& t1) {
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0.0) {
-      if (o[a] < lo[a] || o[a] > hi[a]) return false;
-      continue;
-    }
-    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1) return false;
-  }
-  return true;
-}
-
-struct TriangleHit {
-  double t, u, v;  // hit = (1 - u - v) a + u b + v c
-};
-
-// Moller & Trumbore 1997, both faces.
-std::optional<TriangleHit> intersect_triangle(const Vec3& o, const Vec3& d, const Vec3& a,
-                                              const Vec3& b, const Vec3& c) {
-  Vec3 e1 = b - a, e2 = c - a;
-  Vec3 pv = d.cross(e2);
-  double det = e1.dot(pv);
-  if (det == 0.0) return std::nullopt;
-  double inv = 1.0 / det;
-  Vec3 tv = o - a;
-  double u = tv.dot(pv) * inv;
-  if (u < 0.0 || u > 1.0) return std::nullopt;
-  Vec3 qv = tv.cross(e1);
-  double v = d.dot(qv) * inv;
-  if (v < 0.0 || u + v > 1.0) return std::nullopt;
-  return TriangleHit{e2.dot(qv) * inv, u, v};
-}
-
-struct MeshHit {
-  int face = -1;
-  TriangleHit hit{};
-};
-
-// A bounding volume hierarchy over a mesh's triangles, split at the median centroid along the
-// longest axis of the centroids' bounds.
-class TriangleBvh {
- public:
-  explicit TriangleBvh(const Mesh& mesh) : mesh_(mesh) {
-    int n = static_cast<int>(mesh.F.rows());
-    order_.resize(n);
-    centroids_.resize(n);
-    for (int f = 0; f < n; ++f) {
-      order_[f] = f;
-      centroids_[f] = (mesh.vertex(f, 0) + mesh.vertex(f, 1) + mesh.vertex(f, 2)) / 3.0;
-    }
-    if (n > 0) build(0, n);
-    centroids_.clear();
-  }
-
-  // Calls visit(face, hit) for every triangle the ray meets with t >= t_min whose node the ray
-  // enters before limit(), which visit may lower as it goes.
-  template <class Limit, class Visit>
-  void for_each_hit(const Vec3& o, const Vec3& d, double t_min, const Limit& limit,
-                    const Visit& visit) const {
-    if (nodes_.empty()) return;
-    int stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      double t0 = t_min, t1 = limit();
-      if (!clip_to_aabb(o, d, node.lower, node.upper, t0, t1)) continue;
-      if (node.count > 0) {
-        for (int k = node.first; k < node.first + node.count; ++k) {
-          int f = order_[k];
-          auto h =
-              intersect_triangle(o, d, mesh_.vertex(f, 0), mesh_.vertex(f, 1), mesh_.vertex(f, 2));
-          if (h) visit(f, *h);
-        }
-      } else {
-        stack[top++] = node.right;
-        stack[top++] = node.left;
-      }
-    }
-  }
-
-  // The nearest hit with t in [t_min, t_max] that `accept(t)` keeps.
-  template <class Accept>
-  std::optional<MeshHit> nearest(const Vec3& o, const Vec3& d, double t_min, double t_max,
-                                 const Accept& accept) const {
-    MeshHit best;
-    double best_t = t_max;
-    for_each_hit(
-        o, d, t_min, [&] { return best_t; },
-        [&](int f, const TriangleHit& h) {
-          if (h.t >= t_min && h.t <= best_t && accept(h.t)) {
-            best_t = h.t;
-            best = MeshHit{f, h};
-          }
-        });
-    if (best.face < 0) return std::nullopt;
-    return best;
-  }
-
-  // The number of triangles the ray meets at parameters t > t_from.
-  int count_after(const Vec3& o, const Vec3& d, double t_from) const {
-    int count = 0;
-    for_each_hit(
-        o, d, t_from, [] { return kInfinity; },
-        [&](int, const TriangleHit& h) { count += h.t > t_from; });
-    return count;
-  }
-
- private:
-  static constexpr int kLeafSize = 4;
-  struct Node {
-    Vec3 lower, upper;
-    int left = -1, right = -1;  // children (inner node)
-    int first = 0, count = 0;   // range of order_ (leaf, count > 0)
-  };
-
-  int build(int first, int count) {
-    int index = static_cast<int>(nodes_.size());
-    nodes_.emplace_back();
-    Vec3 lower = Vec3::Constant(kInfinity), upper = Vec3::Constant(-kInfinity);
-    Vec3 clower = lower, cupper = upper;
-    for (int k = first; k < first + count; ++k) {
-      int f = order_[k];
-      for (int c = 0; c < 3; ++c) {
-        lower = lower.cwiseMin(mesh_.vertex(f, c));
-        upper = upper.cwiseMax(mesh_.vertex(f, c));
-      }
-      clower = clower.cwiseMin(centroids_[f]);
-      cupper = cupper.cwiseMax(centroids_[f]);
-    }
-    nodes_[index].lower = lower;
-    nodes_[index].upper = upper;
-    if (count <= kLeafSize) {
-      nodes_[index].first = first;
-      nodes_[index].count = count;
-      return index;
-    }
-    int axis;
-    (cupper - clower).maxCoeff(&axis);
-    int half = count / 2;
-    std::nth_element(order_.begin() + first, order_.begin() + first + half,
-                     order_.begin() + first + count,
-                     [&](int a, int b) { return centroids_[a][axis] < centroids_[b][axis]; });
-    int left = build(first, half);
-    int right = build(first + half, count - half);
-    nodes_[index].left = left;
-    nodes_[index].right = right;
-    return index;
-  }
-
-  const Mesh& mesh_;
-  std::vector<Node> nodes_;
-  std::vector<int> order_;
-  std::vector<Vec3> centroids_;
-};
 
 // ---------------------------------------------------------------------------------------------
 // The ray cast (Correa & Silver 2007, section 3), as in shaders/raycast.frag.glsl.
@@ -394,7 +208,7 @@ std::pair<double, double> texture_range(const BoxTextures& box, const Vec3& o, c
                                         double t_min, double t_max) {
   double t0 = t_min, t1 = t_max;
   const Eigen::AlignedBox3d region = ray_cast_region(box);
-  if (!clip_to_aabb(o, d, region.min(), region.max(), t0, t1)) return {kInfinity, -kInfinity};
+  if (!clip_ray_to_box(o, d, region.min(), region.max(), t0, t1)) return {kInfinity, -kInfinity};
   return {t0, t1};
 }
 
@@ -785,19 +599,21 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
         return std::none_of(boxes.begin(), boxes.end(),
                             [&](const BoxTextures& b) { return b.box.contains(p); });
       };
-      if (auto h = bvh.nearest(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_boxes)) {
+      if (auto h =
+              bvh.nearest_hit(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_boxes)) {
         best_t = h->hit.t;
-        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->face, 0)).transpose() +
-                 h->hit.u * normals.row(mesh.F(h->face, 1)).transpose() +
-                 h->hit.v * normals.row(mesh.F(h->face, 2)).transpose();
+        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->triangle, 0)).transpose() +
+                 h->hit.u * normals.row(mesh.F(h->triangle, 1)).transpose() +
+                 h->hit.v * normals.row(mesh.F(h->triangle, 2)).transpose();
         if (n.norm() == 0.0) {
-          const Vec3 a = mesh.vertex(h->face, 0);
-          n = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+          const Vec3 a = mesh.vertex(h->triangle, 0);
+          n = (mesh.vertex(h->triangle, 1) - a).cross(mesh.vertex(h->triangle, 2) - a);
         }
         if (n.norm() > 0.0) normal = n.normalized();
         // With a cut, a back face (the mesh is oriented outwards) is the inside of the shell.
-        const Vec3 a = mesh.vertex(h->face, 0);
-        const Vec3 geometric = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+        const Vec3 a = mesh.vertex(h->triangle, 0);
+        const Vec3 geometric =
+            (mesh.vertex(h->triangle, 1) - a).cross(mesh.vertex(h->triangle, 2) - a);
         if (any_cut && geometric.dot(ray.direction) > 0.0) {
           kind = HitKind::Inside;
           normal = -normal;
@@ -980,14 +796,16 @@ Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfS
       double best_t = kInfinity;
       Vec3 normal = -ray.direction;
       HitKind kind = HitKind::Surface;
-      if (auto h = bvh.nearest(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_region)) {
+      if (auto h =
+              bvh.nearest_hit(ray.origin, ray.direction, ray.t_min, ray.t_max, outside_region)) {
         best_t = h->hit.t;
-        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->face, 0)).transpose() +
-                 h->hit.u * normals.row(mesh.F(h->face, 1)).transpose() +
-                 h->hit.v * normals.row(mesh.F(h->face, 2)).transpose();
+        Vec3 n = (1.0 - h->hit.u - h->hit.v) * normals.row(mesh.F(h->triangle, 0)).transpose() +
+                 h->hit.u * normals.row(mesh.F(h->triangle, 1)).transpose() +
+                 h->hit.v * normals.row(mesh.F(h->triangle, 2)).transpose();
         if (n.norm() > 0.0) normal = n.normalized();
-        const Vec3 a = mesh.vertex(h->face, 0);
-        const Vec3 geometric = (mesh.vertex(h->face, 1) - a).cross(mesh.vertex(h->face, 2) - a);
+        const Vec3 a = mesh.vertex(h->triangle, 0);
+        const Vec3 geometric =
+            (mesh.vertex(h->triangle, 1) - a).cross(mesh.vertex(h->triangle, 2) - a);
         if (geometric.dot(ray.direction) > 0.0) {
           kind = HitKind::Inside;
           normal = -normal;

@@ -69,7 +69,7 @@ Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfS
                        const RenderSettings& settings);
 
 // CPU z-buffer rasterisation of all triangles, shaded like the GL renderer (flat colour from
-// the face normal), depth per DESIGN's convention. Pixel centres sampled, row 0 at the top.
+// the face normal), depth as docs/conventions.md#depth. Pixel centres sampled, row 0 at the top.
 Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
                 const RenderSettings& settings);
 

@@ -60,7 +60,7 @@ Scene load_with_mesh(const fs::path& scene_file, const fs::path& mesh, const fs:
   if (j.contains("camera") && j["camera"].is_string())
     j["camera"] = (scene_file.parent_path() / j["camera"].get<std::string>()).string();
   const fs::path path = folder / scene_file.filename();
-  std::ofstream(path) << j.dump(2);
+  write_file_atomic(path.string(), j.dump(2));
   return load_scene(path);
 }
 
@@ -83,21 +83,21 @@ std::vector<Case> cases(const fs::path& folder) {
   }
   // A sphere (icosphere, 5120 triangles) twisted by 180 degrees above its lower fifth.
   const Mesh sphere = fixtures::icosphere(1.0, 4);
-  std::ofstream obj(folder / "sphere.obj");
-  for (Eigen::Index v = 0; v < sphere.V.rows(); ++v)
-    obj << "v " << sphere.V(v, 0) << " " << sphere.V(v, 1) << " " << sphere.V(v, 2) << "\n";
-  for (Eigen::Index f = 0; f < sphere.F.rows(); ++f)
-    obj << "f " << sphere.F(f, 0) + 1 << " " << sphere.F(f, 1) + 1 << " " << sphere.F(f, 2) + 1
-        << "\n";
-  obj.close();
-  std::ofstream(folder / "sphere_twist.json") << R"({
+  write_file_atomic((folder / "sphere.obj").string(), [&](std::ostream& obj) {
+    for (Eigen::Index v = 0; v < sphere.V.rows(); ++v)
+      obj << "v " << sphere.V(v, 0) << " " << sphere.V(v, 1) << " " << sphere.V(v, 2) << "\n";
+    for (Eigen::Index f = 0; f < sphere.F.rows(); ++f)
+      obj << "f " << sphere.F(f, 0) + 1 << " " << sphere.F(f, 1) + 1 << " " << sphere.F(f, 2) + 1
+          << "\n";
+  });
+  write_file_atomic((folder / "sphere_twist.json").string(), R"({
     "mesh": "sphere.obj",
     "boxes": [{"min": [-1.1, -0.6, -1.1], "max": [1.1, 1.1, 1.1],
                "deformer": {"type": "twist", "axis": "y", "angle_deg": 180},
                "implicit": {"type": "sdf", "resolution": 128}}],
     "camera": {"eye": [2.4, 2.0, 4.2], "target": [0, 0.1, 0], "fov_y_deg": 36, "near": 1,
                "far": 20},
-    "render": {"width": 512, "height": 512}})";
+    "render": {"width": 512, "height": 512}})");
   Scene s = load_scene(folder / "sphere_twist.json");
   Camera c = *s.camera;
   out.push_back({"sphere_twist", std::move(s), c});
@@ -213,7 +213,7 @@ int main(int argc, char** argv) {
         c.scene.boxes[0].implicit.type = implicit;
         std::ostringstream log;
         const PreparedScene prepared = prepare_scene(c.scene, log);
-        const PreparedBox& box = prepared.boxes[0];
+        const BakedBox& box = prepared.boxes[0];
         const BoxTextures& t = box.textures;
         if (truth.width == 0) {  // the same for both: the mesh and the exact forward map
           auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };

@@ -1,4 +1,4 @@
-// Small helpers shared by the command's reports: printf-style number formatting and medians.
+// printf-style number formatting and medians, for reports and messages.
 #pragma once
 #include <algorithm>
 #include <cstdio>

@@ -1,0 +1,600 @@
+#include "deformers/registry.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "base/error.h"
+#include "deformers/bend.h"
+#include "deformers/box_cut.h"
+#include "deformers/control_points.h"
+#include "deformers/incision.h"
+#include "deformers/peel.h"
+#include "deformers/stretch.h"
+#include "deformers/taper.h"
+#include "deformers/twist.h"
+
+namespace raywarp {
+
+namespace {
+
+using json = nlohmann::json;
+
+// Coordinates beyond this (object units) are refused: they are typos (as in the scene reader).
+constexpr double kMaxCoordinate = 1e12;
+constexpr size_t kMaxControlPoints = 1024;  // the interpolant's dense solve grows as n^3
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+const char* const kFaceNames[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+
+// Declarations, shortened.
+ParamDecl axis_param(std::string meaning, std::string hint) {
+  ParamDecl p;
+  p.key = "axis";
+  p.kind = ParamKind::Axis;
+  p.required = true;
+  p.meaning = std::move(meaning);
+  p.hint = std::move(hint);
+  p.field = &DeformerSpec::axis;
+  return p;
+}
+
+ParamDecl number_param(std::string key, double DeformerSpec::*field, Interval range,
+                       std::string unit, std::string meaning, std::string hint,
+                       std::string default_text = "") {
+  ParamDecl p;
+  p.key = std::move(key);
+  p.kind = ParamKind::Number;
+  p.required = default_text.empty();
+  p.range = range;
+  p.unit = std::move(unit);
+  p.meaning = std::move(meaning);
+  p.hint = std::move(hint);
+  p.default_text = std::move(default_text);
+  p.field = field;
+  return p;
+}
+
+ParamDecl from_param(std::string meaning) {
+  ParamDecl p;
+  p.key = "from";
+  p.kind = ParamKind::Face;
+  p.required = true;
+  p.meaning = std::move(meaning);
+  p.hint = "give a face of the box: +x, -x, +y, -y, +z, -z";
+  return p;
+}
+
+const Interval kPositive{0.0, kInf, true, false};
+
+// `from` must lie on another axis than `axis` (peel, incision).
+void check_from_face(const JsonReader& r, const json& j, const std::string& field,
+                     const DeformerSpec& d) {
+  if (d.from_axis != d.axis) return;
+  std::string others;
+  for (int a = 0; a < 3; ++a)
+    if (a != d.axis)
+      for (const char* side : {"+", "-"})
+        others += (others.empty() ? "" : ", ") + std::string(side) + char('x' + a);
+  r.fail(child(field, "from"), j["from"],
+         "must be a face on another axis than " + child(field, "axis") + " = \"" +
+             char('x' + d.axis) + "\"; allowed: " + others);
+}
+
+void check_sub_box(const JsonReader& r, const json& j, const std::string& field,
+                   const DeformerSpec& d) {
+  for (int a = 0; a < 3; ++a) {
+    if (d.sub_max[a] > d.sub_min[a]) continue;
+    if (j.contains("sub_max"))
+      r.fail(element(child(field, "sub_max"), a), j["sub_max"][a],
+             "must be greater than " + element(child(field, "sub_min"), a) + " = " +
+                 format_number(d.sub_min[a]));
+    r.fail(element(child(field, "sub_min"), a), j["sub_min"][a],
+           "must be less than " + element(child(field, "sub_max"), a) + " = " +
+               format_number(d.sub_max[a]) + " (the default: the box's max face)");
+  }
+}
+
+std::string format_vector(const Eigen::Vector3d& v) {
+  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) +
+         "]";
+}
+
+std::vector<DeformerType> make_registry() {
+  std::vector<DeformerType> types;
+  {
+    DeformerType t;
+    t.name = "twist";
+    t.summary = "rotation about an axis growing from 0 at the box's lower face to angle_deg at its "
+                "upper face (Blender's Simple Deform, mode Twist)";
+    t.params = {axis_param("the twist axis", "give one of x, y, z"),
+                number_param("angle_deg", &DeformerSpec::angle_deg, Interval{}, "degrees",
+                             "the angle at the upper face; any finite value (several turns)",
+                             "give the angle in degrees")};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_twist(h, static_cast<Axis>(d.axis), d.angle_deg);
+    };
+    t.examples = {{{"axis", "y"}, {"angle_deg", 360}}, {{"axis", "x"}, {"angle_deg", -90}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "bend";
+    t.summary = "bend about an axis through the box centre, the box's lower face fixed (Blender's "
+                "Simple Deform, mode Bend)";
+    t.params = {axis_param("the bend axis", "give one of x, y, z"),
+                number_param("angle_deg", &DeformerSpec::angle_deg, {-360.0, 360.0, true, true},
+                             "degrees", "the bend angle over the box", "give the angle in degrees")};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_bend(h, static_cast<Axis>(d.axis), d.angle_deg);
+    };
+    t.examples = {{{"axis", "z"}, {"angle_deg", 90}}, {{"axis", "x"}, {"angle_deg", -200}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "taper";
+    t.summary = "scale across an axis by 1 + factor t, t from 0 at the box's lower face to 1 at "
+                "its upper face (Blender's Simple Deform, mode Taper)";
+    t.params = {axis_param("the taper axis", "give one of x, y, z"),
+                number_param("factor", &DeformerSpec::factor, {-1.0, 10.0, true, false}, "",
+                             "Blender's factor: the relative change of the width at the upper "
+                             "face",
+                             "give the taper factor, e.g. 0.8")};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_taper(h, static_cast<Axis>(d.axis), d.factor);
+    };
+    t.examples = {{{"axis", "y"}, {"factor", 0.8}}, {{"axis", "z"}, {"factor", -0.6}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "stretch";
+    t.summary = "stretch along an axis with the matching squeeze across it, by the square of the "
+                "coordinate in object units, as Blender does (Simple Deform, mode Stretch)";
+    t.params = {axis_param("the stretch axis", "give one of x, y, z"),
+                number_param("factor", &DeformerSpec::factor, Interval{}, "",
+                             "Blender's factor; the box's length along the axis bounds it "
+                             "(the error says how)",
+                             "give the stretch factor, e.g. 0.5")};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_stretch(h, static_cast<Axis>(d.axis), d.factor);
+    };
+    t.examples = {{{"axis", "y"}, {"factor", 0.5}}, {{"axis", "x"}, {"factor", -0.3}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "peel";
+    t.summary = "a layer of the box cut from one face and curled away about an axis (Correa & "
+                "Silver, section 5)";
+    t.cuts = true;
+    t.params = {
+        axis_param("the curl axis", "give the curl axis, one of x, y, z"),
+        from_param("the face the layer is peeled from, on another axis than `axis`"),
+        number_param("angle_deg", &DeformerSpec::angle_deg, {0.0, 180.0, true, false}, "degrees",
+                     "how far the flap curls", "give the curl angle in degrees"),
+        number_param("thickness", &DeformerSpec::thickness, kPositive, "object units",
+                     "the layer's thickness, below 2 h of the face's axis",
+                     "give the layer thickness in object units"),
+        number_param("radius", &DeformerSpec::radius, kPositive, "object units",
+                     "the curl radius", "give the curl radius in object units"),
+        number_param("hinge", &DeformerSpec::hinge, Interval{}, "object units",
+                     "where the flap starts along the peel direction, in [-h, h)", "", "0")};
+    t.check = check_from_face;
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_peel(h, static_cast<Axis>(d.axis), Face{static_cast<Axis>(d.from_axis), d.from_side},
+                       d.angle_deg, d.thickness, d.radius, d.hinge);
+    };
+    t.examples = {{{"axis", "z"},
+                   {"from", "+y"},
+                   {"angle_deg", 120},
+                   {"thickness", 0.4},
+                   {"radius", 0.6}},
+                  {{"axis", "x"},
+                   {"from", "-z"},
+                   {"angle_deg", 60},
+                   {"thickness", 0.3},
+                   {"radius", 1.0},
+                   {"hinge", -0.5}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "incision";
+    t.summary = "a planar cut from one face, pushed open into a wedge-shaped gap (Correa & Silver, "
+                "section 5)";
+    t.cuts = true;
+    t.params = {axis_param("the normal of the cut plane",
+                           "give the normal of the cut plane, one of x, y, z"),
+                from_param("the face the cut enters through, on another axis than `axis`"),
+                number_param("depth", &DeformerSpec::depth, kPositive, "object units",
+                             "how far the cut reaches from its face, up to 2 h of that axis",
+                             "give the depth of the cut in object units"),
+                number_param("opening", &DeformerSpec::opening, kPositive, "object units",
+                             "the gap's width at the face, below 2 h of `axis`",
+                             "give the width of the gap in object units")};
+    t.check = check_from_face;
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_incision(h, static_cast<Axis>(d.axis),
+                           Face{static_cast<Axis>(d.from_axis), d.from_side}, d.depth, d.opening);
+    };
+    t.examples = {{{"axis", "x"}, {"from", "+y"}, {"depth", 1.5}, {"opening", 0.5}},
+                  {{"axis", "z"}, {"from", "-x"}, {"depth", 0.8}, {"opening", 0.3}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "box_cut";
+    t.summary = "removes a sub-box of the box, optionally only a wedge of it about an axis through "
+                "the centre; moves nothing";
+    t.cuts = true;
+    ParamDecl sub_min;
+    sub_min.key = "sub_min";
+    sub_min.kind = ParamKind::Fractions;
+    sub_min.meaning = "the removed sub-box's lower corner, fractions of the box (0 = min face)";
+    sub_min.default_text = "[0, 0, 0]";
+    sub_min.field = &DeformerSpec::sub_min;
+    ParamDecl sub_max = sub_min;
+    sub_max.key = "sub_max";
+    sub_max.meaning = "its upper corner (1 = max face)";
+    sub_max.default_text = "[1, 1, 1]";
+    sub_max.field = &DeformerSpec::sub_max;
+    ParamDecl wedge;
+    wedge.key = "wedge";
+    wedge.kind = ParamKind::Group;
+    wedge.meaning = "only the wedge of the sub-box from from_deg over angle_deg about axis";
+    wedge.default_text = "none";
+    wedge.group_hint = "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}";
+    ParamDecl wedge_axis = axis_param("the wedge's axis", "give the wedge's axis, one of x, y, z");
+    wedge_axis.field = &DeformerSpec::wedge_axis;
+    wedge.children = {
+        wedge_axis,
+        number_param("from_deg", &DeformerSpec::wedge_from_deg, Interval{}, "degrees",
+                     "where the wedge starts", "", "0"),
+        number_param("angle_deg", &DeformerSpec::wedge_angle_deg, {0.0, 180.0, true, false},
+                     "degrees", "the wedge's angle", "give the wedge's angle in degrees")};
+    t.params = {sub_min, sub_max, wedge};
+    t.check = check_sub_box;
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h,
+                std::vector<std::string>*) -> std::unique_ptr<Deformer> {
+      BoxCutParams params;
+      params.sub_min = d.sub_min;
+      params.sub_max = d.sub_max;
+      params.wedge_axis = static_cast<Axis>(d.wedge_axis);
+      params.wedge_from_deg = d.wedge_from_deg;
+      params.wedge_angle_deg = d.wedge_angle_deg;
+      return make_box_cut(h, params);
+    };
+    t.examples = {{{"sub_min", {0.5, 0.5, 0.0}}},
+                  {{"sub_min", {0, 0.3, 0}},
+                   {"sub_max", {1, 1, 0.8}},
+                   {"wedge", {{"axis", "y"}, {"from_deg", 10}, {"angle_deg", 90}}}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "control_points";
+    t.summary = "source -> target pairs interpolated by radial basis functions (global r^3 with an "
+                "affine part, or Wendland C2 within a radius), pinned faces exact";
+    ParamDecl points;
+    points.key = "points";
+    points.kind = ParamKind::Points;
+    points.required = true;
+    points.unit = "object coordinates";
+    points.meaning = "1 to 1024 pairs {\"from\": [x, y, z], \"to\": [x, y, z]}, each from in the box";
+    points.hint = "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs";
+    ParamDecl pinned;
+    pinned.key = "pinned";
+    pinned.kind = ParamKind::Faces;
+    pinned.meaning = "box faces held fixed, e.g. [\"-y\"]";
+    pinned.default_text = "[]";
+    t.params = {points,
+                number_param("radius", &DeformerSpec::influence_radius,
+                             {0.0, kMaxCoordinate, false, false, true}, "object units",
+                             "each point's radius of influence; 0 = the whole box", "", "0"),
+                pinned};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>* w) {
+      std::vector<ControlPoint> points;
+      for (const PointPair& p : d.points) points.push_back({p.source, p.target});
+      return make_control_points(h, std::move(points), d.influence_radius, d.pinned, w);
+    };
+    t.examples = {{{"points", {{{"from", {0, 1.0, 0}}, {"to", {0.3, 1.2, 0}}}}},
+                   {"pinned", {"-y"}}},
+                  {{"points",
+                    {{{"from", {0.5, 0.5, 0}}, {"to", {0.7, 0.4, 0.1}}},
+                     {{"from", {-0.5, 0.8, 0.2}}, {"to", {-0.5, 1.0, 0.2}}}}},
+                   {"radius", 1.2}}};
+    types.push_back(std::move(t));
+  }
+  return types;
+}
+
+std::string allowed_type_list() { return deformer_type_names(); }
+
+void read_params(const JsonReader& r, const json& j, const std::string& field,
+                 const std::vector<ParamDecl>& params, const Box& box, DeformerSpec& d,
+                 bool with_type) {
+  std::vector<std::string> keys;
+  if (with_type) keys.push_back("type");
+  for (const ParamDecl& p : params) keys.push_back(p.key);
+  for (const auto& [key, value] : j.items()) {
+    bool known = false;
+    for (const std::string& k : keys) known = known || key == k;
+    if (known) continue;
+    std::string list;
+    for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+    r.fail(child(field, key), value, "unknown field; allowed: " + list);
+  }
+  for (const ParamDecl& p : params) {
+    const std::string at = child(field, p.key);
+    if (!j.contains(p.key)) {
+      if (p.required) r.missing(at, p.hint);
+      continue;
+    }
+    const json& v = j[p.key];
+    switch (p.kind) {
+      case ParamKind::Number:
+        d.*std::get<double DeformerSpec::*>(p.field) = r.number(v, at, p.range);
+        break;
+      case ParamKind::Axis: {
+        const std::string axis = r.one_of(v, at, {"x", "y", "z"});
+        d.*std::get<int DeformerSpec::*>(p.field) = axis[0] - 'x';
+        break;
+      }
+      case ParamKind::Face: {
+        const std::string face = r.one_of(v, at, {"+x", "-x", "+y", "-y", "+z", "-z"});
+        d.from_side = face[0] == '+' ? 1 : -1;
+        d.from_axis = face[1] - 'x';
+        break;
+      }
+      case ParamKind::Fractions:
+        d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field) = r.vec3(v, at, closed(0, 1));
+        break;
+      case ParamKind::Faces: {
+        const std::string allowed = "must be a list of box faces such as [\"-y\", \"+y\"]";
+        if (!v.is_array()) r.fail(at, v, allowed);
+        for (size_t i = 0; i < v.size(); ++i) {
+          const std::string face =
+              r.one_of(v[i], element(at, i), {"-x", "+x", "-y", "+y", "-z", "+z"});
+          d.pinned[2 * (face[1] - 'x') + (face[0] == '+' ? 1 : 0)] = true;
+        }
+        break;
+      }
+      case ParamKind::Points: {
+        if (!v.is_array() || v.empty() || v.size() > kMaxControlPoints)
+          r.fail(at, v,
+                 "must be a list of 1 to " + std::to_string(kMaxControlPoints) +
+                     " {\"from\": [x, y, z], \"to\": [x, y, z]} pairs (object coordinates)");
+        const Interval coordinate = closed(-kMaxCoordinate, kMaxCoordinate);
+        for (size_t i = 0; i < v.size(); ++i) {
+          const std::string pair_at = element(at, i);
+          r.require_object(v[i], pair_at, "{\"from\": [x, y, z], \"to\": [x, y, z]}");
+          r.check_keys(v[i], pair_at, {"from", "to"});
+          PointPair pair;
+          pair.source = box.to_local(r.vec3(
+              r.required(v[i], pair_at, "from", "give the point's undeformed position [x, y, z]"),
+              child(pair_at, "from"), coordinate));
+          const Eigen::Vector3d outside =
+              pair.source.cwiseAbs() - box.half_extents * (1.0 + 1e-9);
+          if (outside.maxCoeff() > 0.0)
+            r.fail(child(pair_at, "from"), v[i]["from"],
+                   "must lie in the box (centre " + format_vector(box.centre) + ", half_extents " +
+                       format_vector(box.half_extents) +
+                       "): a control point moves the part of the mesh inside its box");
+          pair.target = box.to_local(r.vec3(
+              r.required(v[i], pair_at, "to", "give the point's deformed position [x, y, z]"),
+              child(pair_at, "to"), coordinate));
+          d.points.push_back(pair);
+        }
+        break;
+      }
+      case ParamKind::Group:
+        r.require_object(v, at, p.group_hint);
+        read_params(r, v, at, p.children, box, d, false);
+        break;
+    }
+  }
+}
+
+// Appends every declared parameter's value, exactly, to `out`.
+void key_params(const std::vector<ParamDecl>& params, const DeformerSpec& d, std::string& out) {
+  char buf[40];
+  auto number = [&](double x) {
+    std::snprintf(buf, sizeof buf, "%a ", x);
+    out += buf;
+  };
+  for (const ParamDecl& p : params) {
+    out += p.key + "=";
+    switch (p.kind) {
+      case ParamKind::Number:
+        number(d.*std::get<double DeformerSpec::*>(p.field));
+        break;
+      case ParamKind::Axis:
+        out += std::to_string(d.*std::get<int DeformerSpec::*>(p.field)) + " ";
+        break;
+      case ParamKind::Face:
+        out += std::to_string(d.from_axis) + std::to_string(d.from_side) + " ";
+        break;
+      case ParamKind::Fractions:
+        for (int i = 0; i < 3; ++i) number((d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field))[i]);
+        break;
+      case ParamKind::Faces:
+        for (bool b : d.pinned) out += b ? '1' : '0';
+        out += ' ';
+        break;
+      case ParamKind::Points:
+        out += std::to_string(d.points.size()) + ": ";
+        for (const PointPair& pair : d.points)
+          for (int i = 0; i < 3; ++i) {
+            number(pair.source[i]);
+            number(pair.target[i]);
+          }
+        break;
+      case ParamKind::Group:
+        out += "{ ";
+        key_params(p.children, d, out);
+        out += "} ";
+        break;
+    }
+  }
+}
+
+void describe_params(const std::vector<ParamDecl>& params, const DeformerSpec& d,
+                     std::string& out) {
+  for (const ParamDecl& p : params) {
+    std::string value;
+    switch (p.kind) {
+      case ParamKind::Number:
+        value = format_number(d.*std::get<double DeformerSpec::*>(p.field));
+        break;
+      case ParamKind::Axis:
+        value = std::string(1, char('x' + d.*std::get<int DeformerSpec::*>(p.field)));
+        break;
+      case ParamKind::Face:
+        value = std::string(d.from_side > 0 ? "+" : "-") + char('x' + d.from_axis);
+        break;
+      case ParamKind::Fractions:
+        value = format_vector(d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field));
+        break;
+      case ParamKind::Faces:
+        value = "[";
+        for (int f = 0; f < 6; ++f)
+          if (d.pinned[f]) value += std::string(value.size() > 1 ? ", " : "") + kFaceNames[f];
+        value += "]";
+        break;
+      case ParamKind::Points:
+        value = std::to_string(d.points.size()) + " pairs";
+        break;
+      case ParamKind::Group: {
+        std::string inner;
+        describe_params(p.children, d, inner);
+        value = "{" + inner + "}";
+        break;
+      }
+    }
+    out += (out.empty() ? "" : ", ") + p.key + " " + value;
+  }
+}
+
+std::string range_text(const ParamDecl& p) {
+  switch (p.kind) {
+    case ParamKind::Number: {
+      const Interval& r = p.range;
+      if (!std::isfinite(r.lo) && !std::isfinite(r.hi)) return "any finite number";
+      if (r.hi_is_sanity_limit || !std::isfinite(r.hi))
+        return std::string(r.lo_open ? "> " : ">= ") + format_number(r.lo);
+      return std::string(r.lo_open ? "(" : "[") + format_number(r.lo) + ", " +
+             format_number(r.hi) + (r.hi_open ? ")" : "]");
+    }
+    case ParamKind::Axis:
+      return "`x`, `y`, `z`";
+    case ParamKind::Face:
+      return "`+x`, `-x`, `+y`, `-y`, `+z`, `-z`";
+    case ParamKind::Fractions:
+      return "3 numbers in [0, 1]";
+    case ParamKind::Faces:
+      return "list of faces";
+    case ParamKind::Points:
+      return "1 to 1024 pairs";
+    case ParamKind::Group:
+      return "object";
+  }
+  return "";
+}
+
+void table_rows(const std::string& type, const std::string& prefix,
+                const std::vector<ParamDecl>& params, std::string& out) {
+  for (const ParamDecl& p : params) {
+    out += "| " + type + " | `" + prefix + p.key + "` | " + range_text(p) + " | " +
+           (p.unit.empty() ? "" : p.unit) + " | " +
+           (p.required ? std::string("required") : "`" + p.default_text + "`") + " | " + p.meaning +
+           " |\n";
+    if (p.kind == ParamKind::Group) table_rows(type, prefix + p.key + ".", p.children, out);
+  }
+}
+
+}  // namespace
+
+const std::vector<DeformerType>& deformer_types() {
+  static const std::vector<DeformerType> types = make_registry();
+  return types;
+}
+
+const DeformerType* find_deformer_type(std::string_view name) {
+  for (const DeformerType& t : deformer_types())
+    if (t.name == name) return &t;
+  return nullptr;
+}
+
+namespace {
+std::string names_where(int cuts) {  // -1: all
+  std::string list;
+  for (const DeformerType& t : deformer_types())
+    if (cuts < 0 || t.cuts == (cuts == 1)) list += (list.empty() ? "" : ", ") + t.name;
+  return list;
+}
+}  // namespace
+
+std::string deformer_type_names() { return names_where(-1); }
+std::string cut_type_names() { return names_where(1); }
+std::string continuous_type_names() { return names_where(0); }
+
+DeformerSpec read_deformer(const JsonReader& r, const json& j, const std::string& field,
+                           const Box& box) {
+  r.require_object(j, field, "{\"type\": ..., \"axis\": ..., \"angle_deg\": ...}");
+  const json& type = r.required(j, field, "type", "give one of " + allowed_type_list());
+  const DeformerType* entry =
+      type.is_string() ? find_deformer_type(type.get<std::string>()) : nullptr;
+  if (!entry) r.fail(child(field, "type"), type, "must be one of " + allowed_type_list());
+  DeformerSpec d;
+  d.type = entry->name;
+  read_params(r, j, field, entry->params, box, d, true);
+  if (entry->check) entry->check(r, j, field, d);
+  return d;
+}
+
+bool is_cut(const DeformerSpec& d) {
+  const DeformerType* t = find_deformer_type(d.type);
+  return t && t->cuts;
+}
+
+std::string deformer_key(const DeformerSpec& d) {
+  const DeformerType* t = find_deformer_type(d.type);
+  if (!t) throw Error("type = \"" + d.type + "\": must be one of " + allowed_type_list());
+  std::string out = d.type + " ";
+  key_params(t->params, d, out);
+  return out;
+}
+
+std::string describe_spec(const DeformerSpec& d) {
+  const DeformerType* t = find_deformer_type(d.type);
+  if (!t) return d.type;
+  std::string params;
+  describe_params(t->params, d, params);
+  return d.type + ": " + params;
+}
+
+std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vector3d& h,
+                                        std::vector<std::string>* warnings) {
+  const DeformerType* t = find_deformer_type(d.type);
+  if (!t) throw Error("type = \"" + d.type + "\": must be one of " + allowed_type_list());
+  return t->make(d, h, warnings);
+}
+
+std::string deformer_table() {
+  std::string out =
+      "| type | parameter | allowed | unit | default | meaning |\n"
+      "| --- | --- | --- | --- | --- | --- |\n";
+  for (const DeformerType& t : deformer_types()) {
+    std::string name = "`" + t.name + "`" + (t.cuts ? " (cut)" : "");
+    table_rows(name, "", t.params, out);
+  }
+  out += "\n";
+  for (const DeformerType& t : deformer_types())
+    out += "- `" + t.name + "`" + (t.cuts ? " (a cut)" : "") + ": " + t.summary + ".\n";
+  return out;
+}
+
+}  // namespace raywarp

@@ -1,0 +1,641 @@
+#include "library/bake.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "base/error.h"
+#include "base/format.h"
+#include "base/json_reader.h"
+#include "deformers/composed.h"
+#include "deformers/registry.h"
+#include "library/depth_cube.h"
+#include "library/implicit.h"
+
+namespace raywarp {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Cache keys: every input of a bake, numbers exact.
+class Key {
+ public:
+  Key& operator<<(const std::string& word) {
+    text_ += word;
+    text_ += ' ';
+    return *this;
+  }
+  Key& operator<<(const char* word) { return *this << std::string(word); }
+  Key& operator<<(double x) { return *this << key_number(x); }
+  Key& operator<<(int x) { return *this << std::to_string(x); }
+  const std::string& str() const { return text_; }
+
+ private:
+  std::string text_;
+};
+
+std::string box_key(const Box& b) {
+  Key k;
+  k << "box";
+  for (int i = 0; i < 3; ++i) k << b.centre[i];
+  for (int i = 0; i < 3; ++i) k << b.half_extents[i];
+  for (int i = 0; i < 9; ++i) k << b.rotation(i / 3, i % 3);
+  return k.str();
+}
+
+template <class T>
+std::uint64_t grid_bytes(const Grid3<T>& g) {
+  return static_cast<std::uint64_t>(g.size()) * sizeof(T);
+}
+
+template <class T>
+StageReport grid_stage(Stage stage, const Grid3<T>& g, double seconds, Source source) {
+  StageReport s;
+  s.stage = stage;
+  s.source = source;
+  s.resolution = g.dims;
+  s.spacing = g.spacing;
+  s.bytes = grid_bytes(g);
+  s.seconds = seconds;
+  return s;
+}
+
+// Serialisation of the stages for the disk cache.
+std::vector<char> save_sdf(const DistanceGrid& g) {
+  CacheWriter w;
+  w.grid(g.grid);
+  w.number(g.background);
+  w.number(g.band_voxels);
+  w.text(g.sign_method);
+  w.integer(g.active_voxels);
+  w.number(g.bake_seconds);
+  return w.bytes();
+}
+
+bool load_sdf(const std::vector<char>& bytes, DistanceGrid& g) {
+  CacheReader r(bytes);
+  DistanceGrid d;
+  if (!r.grid(d.grid, kMemoryBudgetBytes)) return false;
+  d.background = static_cast<float>(r.number());
+  d.band_voxels = r.number();
+  d.sign_method = r.text();
+  d.active_voxels = r.integer();
+  d.bake_seconds = r.number();
+  if (!r.ok() || !r.at_end()) return false;
+  g = std::move(d);
+  return true;
+}
+
+// D with the figures measured on it, which cost as much as the bake.
+struct DeformationRecord {
+  DeformationTexture texture;
+  double lipschitz = std::numeric_limits<double>::infinity();
+  double texture_error = 0.0;
+  FoldReport folds;
+  InverseResidual residual;
+};
+
+std::vector<char> save_deformation(const DeformationRecord& d) {
+  CacheWriter w;
+  w.grid(d.texture.grid);
+  w.number(d.texture.bake_seconds);
+  w.number(d.lipschitz);
+  w.number(d.texture_error);
+  w.number(d.folds.folded_volume);
+  w.number(d.folds.box_volume);
+  w.number(d.residual.max);
+  w.number(d.residual.mean);
+  w.integer(d.residual.texels);
+  w.integer(d.residual.over_tolerance);
+  w.number(d.residual.tolerance);
+  w.integer(d.residual.folded);
+  return w.bytes();
+}
+
+bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
+  CacheReader r(bytes);
+  DeformationRecord out;
+  if (!r.grid(out.texture.grid, kMemoryBudgetBytes)) return false;
+  out.texture.bake_seconds = r.number();
+  out.lipschitz = r.number();
+  out.texture_error = r.number();
+  out.folds.folded_volume = r.number();
+  out.folds.box_volume = r.number();
+  out.residual.max = r.number();
+  out.residual.mean = r.number();
+  out.residual.texels = r.integer();
+  out.residual.over_tolerance = r.integer();
+  out.residual.tolerance = r.number();
+  out.residual.folded = r.integer();
+  if (!r.ok() || !r.at_end()) return false;
+  d = std::move(out);
+  return true;
+}
+
+std::vector<char> save_alpha(const AlphaMap& a) {
+  CacheWriter w;
+  w.grid(a.grid);
+  w.number(a.bake_seconds);
+  return w.bytes();
+}
+
+bool load_alpha(const std::vector<char>& bytes, AlphaMap& a) {
+  CacheReader r(bytes);
+  AlphaMap out;
+  if (!r.grid(out.grid, kMemoryBudgetBytes)) return false;
+  out.bake_seconds = r.number();
+  if (!r.ok() || !r.at_end()) return false;
+  a = std::move(out);
+  return true;
+}
+
+std::vector<char> save_step_bounds(const StepBounds& b) {
+  CacheWriter w;
+  w.grid(b.bricks);
+  w.grid(b.sdf_bricks);
+  w.integer(b.brick_cells);
+  w.number(b.sdf_lipschitz);
+  w.number(b.validity_lipschitz);
+  return w.bytes();
+}
+
+bool load_step_bounds(const std::vector<char>& bytes, StepBounds& b) {
+  CacheReader r(bytes);
+  StepBounds out;
+  if (!r.grid(out.bricks, kMemoryBudgetBytes) || !r.grid(out.sdf_bricks, kMemoryBudgetBytes))
+    return false;
+  out.brick_cells = static_cast<int>(r.integer());
+  out.sdf_lipschitz = r.number();
+  out.validity_lipschitz = r.number();
+  if (!r.ok() || !r.at_end()) return false;
+  b = std::move(out);
+  return true;
+}
+
+std::uint64_t value_bytes(const DeformationRecord& d) { return grid_bytes(d.texture.grid); }
+std::uint64_t value_bytes(const DistanceGrid& g) { return grid_bytes(g.grid); }
+std::uint64_t value_bytes(const AlphaMap& a) { return grid_bytes(a.grid); }
+std::uint64_t value_bytes(const StepBounds& b) {
+  return grid_bytes(b.bricks) + grid_bytes(b.sdf_bricks);
+}
+std::uint64_t value_bytes(const DepthCube& c) { return c.texture_bytes(); }
+
+}  // namespace
+
+const char* stage_name(Stage stage) {
+  switch (stage) {
+    case Stage::DistanceGrid:
+      return "distance grid";
+    case Stage::DepthCube:
+      return "depth cube";
+    case Stage::Deformation:
+      return "deformation texture";
+    case Stage::Alpha:
+      return "alpha map";
+    case Stage::StepBounds:
+      break;
+  }
+  return "step bounds";
+}
+
+const char* source_name(Source source) {
+  switch (source) {
+    case Source::Baked:
+      return "baked";
+    case Source::Memory:
+      return "memory";
+    case Source::Disk:
+      break;
+  }
+  return "disk cache";
+}
+
+const StageReport* BakeReport::stage(Stage s) const {
+  for (const StageReport& r : stages)
+    if (r.stage == s) return &r;
+  return nullptr;
+}
+
+std::vector<std::string> BakeReport::warning_messages() const {
+  std::vector<std::string> out;
+  for (const BakeWarning& w : warnings)
+    if (w.code != "cache_store") out.push_back(w.message);
+  return out;
+}
+
+MeshPtr load_mesh_handle(const std::filesystem::path& file) {
+  const auto start = std::chrono::steady_clock::now();
+  auto handle = std::make_shared<MeshHandle>();
+  handle->file = file;
+  handle->mesh = load_mesh(file.string());
+  handle->stats = mesh_stats(handle->mesh);
+  handle->hash = file_hash(file);
+  handle->load_seconds = seconds_since(start);
+  return handle;
+}
+
+BakeJob make_job(const Scene& scene, size_t box_index, MeshPtr mesh, bool centre_on_lower_faces) {
+  BakeJob job;
+  job.mesh = std::move(mesh);
+  job.spec = scene.boxes.at(box_index);
+  job.where = scene.file.string() + ": boxes[" + std::to_string(box_index) + "]";
+  job.sampling = scene.render.sampling;
+  job.texture_bits = scene.render.texture_bits;
+  job.max_steps = scene.render.max_steps;
+  job.step_voxels = scene.render.step_voxels;
+  job.centre_on_lower_faces = centre_on_lower_faces;
+  return job;
+}
+
+std::shared_ptr<const Deformer> make_box_deformer(const BoxSpec& spec, const std::string& where,
+                                                  std::vector<std::string>* warnings) {
+  const std::string field = where + ".deformer";
+  std::vector<std::shared_ptr<const Deformer>> parts;
+  for (size_t i = 0; i <= spec.then.size(); ++i) {
+    const DeformerSpec& d = i == 0 ? spec.deformer : spec.then[i - 1];
+    try {
+      parts.push_back(make_deformer(d, spec.box.half_extents, warnings));
+    } catch (const Error& e) {
+      std::string at = field;
+      if (!spec.then.empty()) at += '[' + std::to_string(i) + ']';
+      throw Error(at + "." + e.what());
+    }
+  }
+  if (parts.size() == 1) return parts[0];
+  try {
+    return make_composed(std::move(parts));
+  } catch (const Error& e) {
+    throw Error(field + e.what());
+  }
+}
+
+std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_index,
+                                              std::vector<std::string>* warnings) {
+  return make_box_deformer(scene.boxes.at(box_index),
+                           scene.file.string() + ": boxes[" + std::to_string(box_index) + "]",
+                           warnings);
+}
+
+std::string deformer_key(const BoxSpec& spec) {
+  Key k;
+  k << "half extents";
+  for (int i = 0; i < 3; ++i) k << spec.box.half_extents[i];
+  k << "\n" << deformer_key(spec.deformer);
+  for (const DeformerSpec& d : spec.then) k << "\nthen" << deformer_key(d);
+  return k.str();
+}
+
+OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box) {
+  OpenEdges out;
+  for_each_edge_use(mesh, [&](int u, int w, int faces) {
+    if (faces != 1 && faces < 3) return;
+    if (box.contains(0.5 * (mesh.V.row(u) + mesh.V.row(w)).transpose()))
+      ++(faces == 1 ? out.boundary : out.nonmanifold);
+  });
+  return out;
+}
+
+std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
+  static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+  auto identity = deformer.identity_faces();
+  std::vector<Eigen::Vector3d> local(mesh.V.rows());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    local[i] = box.to_local(mesh.V.row(i).transpose());
+  bool crossed[6] = {false, false, false, false, false, false};
+  const Eigen::Vector3d& h = box.half_extents;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    for (int e = 0; e < 3; ++e) {
+      const Eigen::Vector3d& a = local[mesh.F(f, e)];
+      const Eigen::Vector3d& b = local[mesh.F(f, (e + 1) % 3)];
+      for (int face = 0; face < 6; ++face) {
+        if (identity[face] || crossed[face]) continue;
+        int axis = face / 2;
+        double plane = (face % 2) ? h[axis] : -h[axis];
+        double da = a[axis] - plane, db = b[axis] - plane;
+        if ((da > 0) == (db > 0) || da == db) continue;
+        Eigen::Vector3d x = a + (b - a) * (da / (da - db));
+        bool inside = true;
+        for (int k = 0; k < 3; ++k)
+          if (k != axis && std::abs(x[k]) > h[k]) inside = false;
+        crossed[face] = inside;
+      }
+    }
+  }
+  std::vector<std::string> out;
+  for (int face = 0; face < 6; ++face)
+    if (crossed[face]) out.push_back(names[face]);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The session.
+
+struct BakeSession::Entry {
+  std::string key;
+  std::shared_ptr<const void> value;
+  std::uint64_t bytes = 0;
+};
+
+BakeSession::BakeSession(BakeCache* disk, std::uint64_t memory_budget_bytes)
+    : disk_(disk), budget_(memory_budget_bytes) {}
+
+BakeSession::~BakeSession() = default;
+
+MeshPtr BakeSession::mesh(const std::filesystem::path& file) {
+  for (const MeshPtr& m : meshes_)
+    if (m->file == file) return m;
+  meshes_.push_back(load_mesh_handle(file));
+  return meshes_.back();
+}
+
+std::shared_ptr<const void> BakeSession::find(const std::string& key) {
+  for (auto it = entries_.begin(); it != entries_.end(); ++it)
+    if (it->key == key) {
+      entries_.splice(entries_.begin(), entries_, it);
+      return entries_.front().value;
+    }
+  return nullptr;
+}
+
+void BakeSession::keep(const std::string& key, std::shared_ptr<const void> value,
+                       std::uint64_t bytes) {
+  if (bytes > budget_) return;
+  entries_.push_front(Entry{key, std::move(value), bytes});
+  memory_bytes_ += bytes;
+  while (memory_bytes_ > budget_ && !entries_.empty()) {
+    memory_bytes_ -= entries_.back().bytes;
+    entries_.pop_back();
+  }
+}
+
+BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
+  if (!job.mesh) throw Error(job.where + ": no mesh");
+  const BoxSpec& spec = job.spec;
+  const Mesh& mesh = job.mesh->mesh;
+  BakedBox out;
+  BakeReport& report = out.report;
+  std::vector<std::string> notes;
+  out.deformer = make_box_deformer(spec, job.where, &notes);
+  for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
+  report.deformer = out.deformer->describe();
+  report.parameters = describe_spec(spec.deformer);
+  for (const DeformerSpec& d : spec.then) report.parameters += "; " + describe_spec(d);
+
+  // Memory, then disk, then bake; stores what it baked in both. The value lives in memory as a
+  // shared_ptr<const T>, so a hit copies it into the textures once.
+  auto stage = [&](auto& value, const std::string& kind, const std::string& key, long& counter,
+                   auto bake, auto save, auto load) -> Source {
+    using T = std::decay_t<decltype(value)>;
+    if (auto hit = find(key)) {
+      value = *static_cast<const T*>(hit.get());
+      ++counters_.memory_hits;
+      return Source::Memory;
+    }
+    if (disk_) {
+      if (auto bytes = disk_->get(kind, key); bytes && load(*bytes, value)) {
+        ++counters_.disk_hits;
+        keep(key, std::make_shared<const T>(value), value_bytes(value));
+        return Source::Disk;
+      }
+    }
+    value = bake();  // throws Cancelled before anything is stored
+    ++counter;
+    keep(key, std::make_shared<const T>(value), value_bytes(value));
+    if (disk_) {
+      std::string error;
+      if (!disk_->put(kind, key, save(value), &error))
+        report.warnings.push_back(
+            {"cache_store", "the bake cache " + disk_->dir().string() + " cannot store a " + kind +
+                                " (" + error + "); it will be baked again next time"});
+    }
+    return Source::Baked;
+  };
+
+  BoxTextures& tex = out.textures;
+  tex.box = spec.box;
+
+  // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
+  // the grid holds only +-background, must reach past tau.
+  ImplicitSpec implicit = spec.implicit;
+  if (out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell && implicit.type == "sdf") {
+    const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
+    const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;
+    if (needed > implicit.band_voxels) {
+      report.band_widened_from = implicit.band_voxels;
+      implicit.band_voxels = needed;
+    }
+  }
+  std::string sdf_key;
+  if (implicit.type == "depth_cube") {
+    const std::string key = (Key() << "depth cube\nmesh" << job.mesh->hash << "\n"
+                                   << box_key(spec.box) << "\nresolution" << implicit.resolution)
+                                .str();
+    // Kept in memory only: the six maps bake in milliseconds (docs/depth_cube.md).
+    Source source = Source::Baked;
+    if (auto hit = find(key)) {
+      tex.depth_cube = *static_cast<const DepthCube*>(hit.get());
+      ++counters_.memory_hits;
+      source = Source::Memory;
+    } else {
+      tex.depth_cube = bake_depth_cube(mesh, spec.box, implicit.resolution);
+      ++counters_.depth_cube;
+      keep(key, std::make_shared<const DepthCube>(tex.depth_cube), value_bytes(tex.depth_cube));
+    }
+    tex.uses_depth_cube = true;
+    StageReport s;
+    s.stage = Stage::DepthCube;
+    s.source = source;
+    s.resolution = Eigen::Vector3i(tex.depth_cube.maps[0].nu, tex.depth_cube.maps[0].nv, 6);
+    s.spacing = tex.depth_cube.spacing;
+    s.bytes = tex.depth_cube.texture_bytes();
+    s.seconds = tex.depth_cube.bake_seconds;
+    report.stages.push_back(s);
+  } else {
+    sdf_key = (Key() << "distance grid\nmesh" << job.mesh->hash << "\n"
+                     << box_key(spec.box) << "\nresolution" << implicit.resolution << "band"
+                     << implicit.band_voxels << "margin" << implicit.margin_voxels)
+                  .str();
+    const Source source = stage(
+        tex.sdf, "sdf", sdf_key, counters_.distance_grid,
+        [&] {
+          return bake_distance_grid(mesh, spec.box, implicit, kMemoryBudgetBytes, interrupter);
+        },
+        save_sdf, load_sdf);
+    report.stages.push_back(
+        grid_stage(Stage::DistanceGrid, tex.sdf.grid, tex.sdf.bake_seconds, source));
+    report.band_voxels = tex.sdf.band_voxels;
+    report.active_voxels = tex.sdf.active_voxels;
+    report.sign_method = tex.sdf.sign_method;
+  }
+  const double voxel = implicit_spacing(tex);
+  report.voxel = voxel;
+
+  tex.moves_nothing = out.deformer->moves_nothing();
+  report.moves_nothing = tex.moves_nothing;
+  // A deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
+  // bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
+  const int resolution = tex.moves_nothing ? 2 : spec.deformation_resolution;
+  const bool centred = job.centre_on_lower_faces && !tex.moves_nothing;
+  const std::string def_key = (Key() << "deformation\n"
+                                     << deformer_key(spec) << "\nresolution" << resolution
+                                     << (job.centre_on_lower_faces ? "centred on the lower faces"
+                                                                   : "")
+                                     << "residual tolerance" << kResidualVoxels * voxel)
+                                  .str();
+  DeformationRecord record;
+  const Source def_source = stage(
+      record, "deformation", def_key, counters_.deformation,
+      [&] {
+        DeformationRecord r;
+        const Deformer& d = *out.deformer;
+        r.texture = bake_deformation(d, spec.box.half_extents, resolution, centred, interrupter);
+        if (!tex.moves_nothing) {
+          r.lipschitz = displacement_lipschitz(d, r.texture, interrupter);
+          r.texture_error = deformation_texture_error(d, r.texture, 2, interrupter);
+          r.residual = measure_inverse_residual(d, r.texture, kResidualVoxels * voxel, interrupter);
+        }
+        r.folds = measure_folds(d, spec.box.half_extents, 64, interrupter);
+        return r;
+      },
+      save_deformation, load_deformation);
+  tex.deformation = std::move(record.texture);
+  report.stages.push_back(grid_stage(Stage::Deformation, tex.deformation.grid,
+                                     tex.deformation.bake_seconds, def_source));
+  if (tex.moves_nothing) {
+    const Eigen::Vector3d pad = Eigen::Vector3d::Constant(kCapVoxels * voxel);
+    tex.region = Eigen::AlignedBox3d(-spec.box.half_extents - pad, spec.box.half_extents + pad);
+    if (!tex.uses_depth_cube)  // within the distance grid
+      tex.region =
+          tex.region.intersection(Eigen::AlignedBox3d(tex.sdf.grid.origin, tex.sdf.grid.upper()));
+    tex.lipschitz = 1.0;
+  } else {
+    tex.region = Eigen::AlignedBox3d(tex.deformation.grid.origin, tex.deformation.grid.upper());
+    tex.lipschitz = record.lipschitz;
+  }
+  report.lipschitz = tex.lipschitz;
+
+  if (out.deformer->has_cut()) {
+    tex.has_cut = true;
+    tex.cut_mode = spec.cut_mode;
+    tex.shell_thickness = spec.shell_thickness;
+    const std::string alpha_key =
+        (Key() << "alpha\n"
+               << deformer_key(spec) << "\nregion" << tex.region.min().x() << tex.region.min().y()
+               << tex.region.min().z() << tex.region.max().x() << tex.region.max().y()
+               << tex.region.max().z() << "\nresolution" << spec.alpha_resolution)
+            .str();
+    const Source source = stage(
+        tex.alpha, "alpha", alpha_key, counters_.alpha,
+        [&] { return bake_alpha(*out.deformer, tex.region, spec.alpha_resolution, interrupter); },
+        save_alpha, load_alpha);
+    report.stages.push_back(grid_stage(Stage::Alpha, tex.alpha.grid, tex.alpha.bake_seconds, source));
+  }
+
+  if (!tex.moves_nothing) {
+    report.texture_error = record.texture_error;
+    report.residual = record.residual;
+    const InverseResidual& res = record.residual;
+    if (res.over_tolerance > 0) {
+      std::string w = "the deformation texture does not invert the deformation at " +
+                      std::to_string(res.over_tolerance) + " of " + std::to_string(res.texels) +
+                      " texels (residual up to " + fmt("%.3g", res.max) + " units, over " +
+                      fmt("%g", kResidualVoxels) + " voxel";
+      if (res.folded)
+        w += "; " + std::to_string(res.folded) + " texels lie where the deformation folds";
+      w += "): those points have no preimage or Newton's method did not find it";
+      report.warnings.push_back({"inverse_residual", w});
+    }
+    const double voxels = report.texture_error_voxels();
+    if (voxels > 1.0)
+      report.warnings.push_back(
+          {"texture_coarse",
+           "the deformation texture misplaces points by up to " +
+               fmt("%.3g", report.texture_error) + " units (" + fmt("%.2g", voxels) +
+               " voxels of the distance grid) between its texels: raise deformation.resolution "
+               "(now " +
+               std::to_string(spec.deformation_resolution) + ")"});
+  }
+  report.folds = record.folds;
+  if (report.folds.folds())
+    report.warnings.push_back(
+        {"folds", "the deformation folds space in " + fmt("%.3g", report.folds.folded_volume) +
+                      " cubic units (" +
+                      fmt("%.2f", 100.0 * report.folds.folded_volume / report.folds.box_volume) +
+                      " % of the box, where det J <= 0); raywarp renders the non-folded branch "
+                      "there"});
+  for (const auto& face : torn_faces(mesh, spec.box, *out.deformer))
+    report.warnings.push_back(
+        {"torn_face", "the mesh crosses box face " + face +
+                          ", where the deformation is not the identity: the surface tears there"});
+  if (const OpenEdges open = open_edges_in_box(mesh, spec.box); open.any())
+    report.warnings.push_back(
+        {"open_mesh",
+         "the mesh is open or non-manifold inside the box (" + std::to_string(open.boundary) +
+             " boundary and " + std::to_string(open.nonmanifold) +
+             " non-manifold edges): its inside there is taken from the generalised winding "
+             "number, and a sheet or fin with no inside of its own is not in the distance grid, "
+             "so it does not show in the deformed part"});
+  const double ray_length = tex.region.diagonal().norm();
+  const double reach = job.max_steps * job.step_voxels * voxel;
+  if (reach < ray_length)
+    report.warnings.push_back(
+        {"max_steps_short", "render.max_steps = " + std::to_string(job.max_steps) + " covers " +
+                                fmt("%.3g", reach) + " units of a ray, less than the " +
+                                fmt("%.3g", ray_length) +
+                                " across the deformed box: long rays stop early and miss"});
+  if (job.texture_bits == 16) {
+    round_textures_to_half(tex);
+    report.half_precision = true;
+  }
+  if (traces_bounded(job.sampling, tex.has_cut, tex.moves_nothing)) {
+    const std::string bounds_key =
+        (Key() << "step bounds\n"
+               << sdf_key << "\n"
+               << def_key << (job.texture_bits == 16 ? "16-bit" : "32-bit"))
+            .str();
+    const Source source = stage(
+        tex.step_bounds, "bounds", bounds_key, counters_.step_bounds,
+        [&] { return bake_step_bounds(tex.sdf, tex.deformation); }, save_step_bounds,
+        load_step_bounds);
+    const StepBounds& sb = tex.step_bounds;
+    StageReport s = grid_stage(Stage::StepBounds, sb.bricks, 0.0, source);
+    s.bytes += grid_bytes(sb.sdf_bricks);
+    report.stages.push_back(s);
+    report.brick_cells = sb.brick_cells;
+    auto range = [](const Grid3<float>& g, double& lo, double& hi) {
+      const auto [a, b] = std::minmax_element(g.data.begin(), g.data.end());
+      lo = *a;
+      hi = *b;
+    };
+    range(sb.sdf_bricks, report.sdf_bound_min, report.sdf_bound_max);
+    range(sb.bricks, report.d_bound_min, report.d_bound_max);
+    report.sdf_lipschitz = sb.sdf_lipschitz;
+  }
+  return out;
+}
+
+std::vector<BoxTextures> PreparedScene::textures() const {
+  std::vector<BoxTextures> out;
+  for (const auto& b : boxes) out.push_back(b.textures);
+  return out;
+}
+
+PreparedScene bake_scene(const Scene& scene, BakeSession& session, bool centre_on_lower_faces,
+                         Interrupter* interrupter) {
+  PreparedScene out;
+  out.handle = session.mesh(scene.mesh);
+  out.mesh = out.handle->mesh;
+  out.stats = out.handle->stats;
+  const long before = session.counters().baked();
+  for (size_t i = 0; i < scene.boxes.size(); ++i)
+    out.boxes.push_back(
+        session.bake(make_job(scene, i, out.handle, centre_on_lower_faces), interrupter));
+  out.bakes = static_cast<int>(session.counters().baked() - before);
+  return out;
+}
+
+}  // namespace raywarp
