@@ -19,15 +19,15 @@
 #include <string>
 #include <vector>
 
-#include "library/deformation_bake.h"
-#include "deformers/bend.h"
-#include "deformers/twist.h"
 #include "base/atomic_file.h"
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/pipeline.h"
+#include "deformers/bend.h"
+#include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "library/deformation_bake.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
 

@@ -8,13 +8,13 @@
 #include <regex>
 #include <sstream>
 
-#include "deformers/twist.h"
+#include "base/error.h"
 #include "base/format.h"
 #include "cli/pipeline.h"
-#include "base/error.h"
-#include "library/gif.h"
+#include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "library/gif.h"
 #include "library/scene.h"
 
 namespace raywarp {
@@ -223,7 +223,8 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       renderer.set_mesh(prepared.mesh);
       renderer.set_boxes(prepared.textures());
       for (const auto& b : prepared.boxes)
-        for (const auto& w : b.report.warning_messages()) log << "frame " << f << ": warning: " << w << "\n";
+        for (const auto& w : b.report.warning_messages())
+          log << "frame " << f << ": warning: " << w << "\n";
       what = "re-baked (" + std::to_string(prepared.bakes) +
              " textures baked, the rest from the "
              "cache) in " +

@@ -8,11 +8,12 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "base/error.h"
 #include "cli/animate.h"
 #include "cli/pipeline.h"
 #include "cli/stability.h"
 #include "cli/study.h"
-#include "base/error.h"
+#include "deformers/registry.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
@@ -314,10 +315,34 @@ int main(int argc, char** argv) {
       "out/study\n"
       "         raywarp study --stability   (from the repository root)");
 
+  bool deformers_markdown = false;
+  auto* deformers_cmd = app.add_subcommand(
+      "deformers", "List the deformer types with their parameters, ranges and defaults");
+  deformers_cmd->add_flag("--markdown", deformers_markdown,
+                          "Print the table of docs/scene.md (Markdown) instead of text");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*render) return run_render(ropt);
     if (*info) return run_info(info_path);
+    if (*deformers_cmd) {
+      if (deformers_markdown) {
+        std::cout << deformer_table();
+      } else {
+        for (const DeformerType& t : deformer_types()) {
+          std::cout << t.name << (t.cuts ? " (cut)" : "") << ": " << t.summary << "\n";
+          for (const ParamDecl& p : t.params) {
+            std::cout << "  " << p.key << (p.required ? "" : " (default " + p.default_text + ")")
+                      << ": " << p.meaning << (p.unit.empty() ? "" : ", " + p.unit) << "\n";
+            for (const ParamDecl& q : p.children)
+              std::cout << "    " << p.key << "." << q.key
+                        << (q.required ? "" : " (default " + q.default_text + ")") << ": "
+                        << q.meaning << (q.unit.empty() ? "" : ", " + q.unit) << "\n";
+          }
+        }
+      }
+      return 0;
+    }
     if (*cache_cmd) {
       const fs::path dir = cache_dir.empty() ? BakeCache::default_dir() : fs::path(cache_dir);
       if (dir.empty())

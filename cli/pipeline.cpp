@@ -28,8 +28,8 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << fmt("%g", r.band_voxels) << " voxels to hold the shell thickness\n";
   auto from_cache = [&](const StageReport* s) { return s && s->source != Source::Baked; };
   if (const StageReport* s = r.stage(Stage::DepthCube)) {
-    log << tag << describe(tex.depth_cube)
-        << (s->source == Source::Memory ? " (from memory)" : "") << "\n";
+    log << tag << describe(tex.depth_cube) << (s->source == Source::Memory ? " (from memory)" : "")
+        << "\n";
   }
   if (const StageReport* s = r.stage(Stage::DistanceGrid)) {
     if (from_cache(s))

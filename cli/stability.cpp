@@ -11,13 +11,13 @@
 #include <sstream>
 #include <thread>
 
+#include "base/error.h"
 #include "base/format.h"
 #include "cli/pipeline.h"
-#include "base/error.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 namespace raywarp {
 

@@ -27,8 +27,8 @@
 #include <memory>
 #include <vector>
 
-#include "deformers/deformer.h"
 #include "base/box.h"
+#include "deformers/deformer.h"
 
 namespace raywarp {
 

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <exception>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "base/error.h"

@@ -106,8 +106,9 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "twist";
-    t.summary = "rotation about an axis growing from 0 at the box's lower face to angle_deg at its "
-                "upper face (Blender's Simple Deform, mode Twist)";
+    t.summary =
+        "rotation about an axis growing from 0 at the box's lower face to angle_deg at its "
+        "upper face (Blender's Simple Deform, mode Twist)";
     t.params = {axis_param("the twist axis", "give one of x, y, z"),
                 number_param("angle_deg", &DeformerSpec::angle_deg, Interval{}, "degrees",
                              "the angle at the upper face; any finite value (several turns)",
@@ -121,11 +122,13 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "bend";
-    t.summary = "bend about an axis through the box centre, the box's lower face fixed (Blender's "
-                "Simple Deform, mode Bend)";
-    t.params = {axis_param("the bend axis", "give one of x, y, z"),
-                number_param("angle_deg", &DeformerSpec::angle_deg, {-360.0, 360.0, true, true},
-                             "degrees", "the bend angle over the box", "give the angle in degrees")};
+    t.summary =
+        "bend about an axis through the box centre, the box's lower face fixed (Blender's "
+        "Simple Deform, mode Bend)";
+    t.params = {
+        axis_param("the bend axis", "give one of x, y, z"),
+        number_param("angle_deg", &DeformerSpec::angle_deg, {-360.0, 360.0, true, true}, "degrees",
+                     "the bend angle over the box", "give the angle in degrees")};
     t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
       return make_bend(h, static_cast<Axis>(d.axis), d.angle_deg);
     };
@@ -135,8 +138,9 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "taper";
-    t.summary = "scale across an axis by 1 + factor t, t from 0 at the box's lower face to 1 at "
-                "its upper face (Blender's Simple Deform, mode Taper)";
+    t.summary =
+        "scale across an axis by 1 + factor t, t from 0 at the box's lower face to 1 at "
+        "its upper face (Blender's Simple Deform, mode Taper)";
     t.params = {axis_param("the taper axis", "give one of x, y, z"),
                 number_param("factor", &DeformerSpec::factor, {-1.0, 10.0, true, false}, "",
                              "Blender's factor: the relative change of the width at the upper "
@@ -151,8 +155,9 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "stretch";
-    t.summary = "stretch along an axis with the matching squeeze across it, by the square of the "
-                "coordinate in object units, as Blender does (Simple Deform, mode Stretch)";
+    t.summary =
+        "stretch along an axis with the matching squeeze across it, by the square of the "
+        "coordinate in object units, as Blender does (Simple Deform, mode Stretch)";
     t.params = {axis_param("the stretch axis", "give one of x, y, z"),
                 number_param("factor", &DeformerSpec::factor, Interval{}, "",
                              "Blender's factor; the box's length along the axis bounds it "
@@ -167,8 +172,9 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "peel";
-    t.summary = "a layer of the box cut from one face and curled away about an axis (Correa & "
-                "Silver, section 5)";
+    t.summary =
+        "a layer of the box cut from one face and curled away about an axis (Correa & "
+        "Silver, section 5)";
     t.cuts = true;
     t.params = {
         axis_param("the curl axis", "give the curl axis, one of x, y, z"),
@@ -178,33 +184,32 @@ std::vector<DeformerType> make_registry() {
         number_param("thickness", &DeformerSpec::thickness, kPositive, "object units",
                      "the layer's thickness, below 2 h of the face's axis",
                      "give the layer thickness in object units"),
-        number_param("radius", &DeformerSpec::radius, kPositive, "object units",
-                     "the curl radius", "give the curl radius in object units"),
+        number_param("radius", &DeformerSpec::radius, kPositive, "object units", "the curl radius",
+                     "give the curl radius in object units"),
         number_param("hinge", &DeformerSpec::hinge, Interval{}, "object units",
                      "where the flap starts along the peel direction, in [-h, h)", "", "0")};
     t.check = check_from_face;
     t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_peel(h, static_cast<Axis>(d.axis), Face{static_cast<Axis>(d.from_axis), d.from_side},
-                       d.angle_deg, d.thickness, d.radius, d.hinge);
+      return make_peel(h, static_cast<Axis>(d.axis),
+                       Face{static_cast<Axis>(d.from_axis), d.from_side}, d.angle_deg, d.thickness,
+                       d.radius, d.hinge);
     };
-    t.examples = {{{"axis", "z"},
-                   {"from", "+y"},
-                   {"angle_deg", 120},
-                   {"thickness", 0.4},
-                   {"radius", 0.6}},
-                  {{"axis", "x"},
-                   {"from", "-z"},
-                   {"angle_deg", 60},
-                   {"thickness", 0.3},
-                   {"radius", 1.0},
-                   {"hinge", -0.5}}};
+    t.examples = {
+        {{"axis", "z"}, {"from", "+y"}, {"angle_deg", 120}, {"thickness", 0.4}, {"radius", 0.6}},
+        {{"axis", "x"},
+         {"from", "-z"},
+         {"angle_deg", 60},
+         {"thickness", 0.3},
+         {"radius", 1.0},
+         {"hinge", -0.5}}};
     types.push_back(std::move(t));
   }
   {
     DeformerType t;
     t.name = "incision";
-    t.summary = "a planar cut from one face, pushed open into a wedge-shaped gap (Correa & Silver, "
-                "section 5)";
+    t.summary =
+        "a planar cut from one face, pushed open into a wedge-shaped gap (Correa & Silver, "
+        "section 5)";
     t.cuts = true;
     t.params = {axis_param("the normal of the cut plane",
                            "give the normal of the cut plane, one of x, y, z"),
@@ -227,8 +232,9 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "box_cut";
-    t.summary = "removes a sub-box of the box, optionally only a wedge of it about an axis through "
-                "the centre; moves nothing";
+    t.summary =
+        "removes a sub-box of the box, optionally only a wedge of it about an axis through "
+        "the centre; moves nothing";
     t.cuts = true;
     ParamDecl sub_min;
     sub_min.key = "sub_min";
@@ -276,14 +282,16 @@ std::vector<DeformerType> make_registry() {
   {
     DeformerType t;
     t.name = "control_points";
-    t.summary = "source -> target pairs interpolated by radial basis functions (global r^3 with an "
-                "affine part, or Wendland C2 within a radius), pinned faces exact";
+    t.summary =
+        "source -> target pairs interpolated by radial basis functions (global r^3 with an "
+        "affine part, or Wendland C2 within a radius), pinned faces exact";
     ParamDecl points;
     points.key = "points";
     points.kind = ParamKind::Points;
     points.required = true;
     points.unit = "object coordinates";
-    points.meaning = "1 to 1024 pairs {\"from\": [x, y, z], \"to\": [x, y, z]}, each from in the box";
+    points.meaning =
+        "1 to 1024 pairs {\"from\": [x, y, z], \"to\": [x, y, z]}, each from in the box";
     points.hint = "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs";
     ParamDecl pinned;
     pinned.key = "pinned";
@@ -300,12 +308,12 @@ std::vector<DeformerType> make_registry() {
       for (const PointPair& p : d.points) points.push_back({p.source, p.target});
       return make_control_points(h, std::move(points), d.influence_radius, d.pinned, w);
     };
-    t.examples = {{{"points", {{{"from", {0, 1.0, 0}}, {"to", {0.3, 1.2, 0}}}}},
-                   {"pinned", {"-y"}}},
-                  {{"points",
-                    {{{"from", {0.5, 0.5, 0}}, {"to", {0.7, 0.4, 0.1}}},
-                     {{"from", {-0.5, 0.8, 0.2}}, {"to", {-0.5, 1.0, 0.2}}}}},
-                   {"radius", 1.2}}};
+    t.examples = {
+        {{"points", {{{"from", {0, 1.0, 0}}, {"to", {0.3, 1.2, 0}}}}}, {"pinned", {"-y"}}},
+        {{"points",
+          {{{"from", {0.5, 0.5, 0}}, {"to", {0.7, 0.4, 0.1}}},
+           {{"from", {-0.5, 0.8, 0.2}}, {"to", {-0.5, 1.0, 0.2}}}}},
+         {"radius", 1.2}}};
     types.push_back(std::move(t));
   }
   return types;
@@ -376,8 +384,7 @@ void read_params(const JsonReader& r, const json& j, const std::string& field,
           pair.source = box.to_local(r.vec3(
               r.required(v[i], pair_at, "from", "give the point's undeformed position [x, y, z]"),
               child(pair_at, "from"), coordinate));
-          const Eigen::Vector3d outside =
-              pair.source.cwiseAbs() - box.half_extents * (1.0 + 1e-9);
+          const Eigen::Vector3d outside = pair.source.cwiseAbs() - box.half_extents * (1.0 + 1e-9);
           if (outside.maxCoeff() > 0.0)
             r.fail(child(pair_at, "from"), v[i]["from"],
                    "must lie in the box (centre " + format_vector(box.centre) + ", half_extents " +
@@ -418,7 +425,8 @@ void key_params(const std::vector<ParamDecl>& params, const DeformerSpec& d, std
         out += std::to_string(d.from_axis) + std::to_string(d.from_side) + " ";
         break;
       case ParamKind::Fractions:
-        for (int i = 0; i < 3; ++i) number((d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field))[i]);
+        for (int i = 0; i < 3; ++i)
+          number((d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field))[i]);
         break;
       case ParamKind::Faces:
         for (bool b : d.pinned) out += b ? '1' : '0';
@@ -485,8 +493,8 @@ std::string range_text(const ParamDecl& p) {
       if (!std::isfinite(r.lo) && !std::isfinite(r.hi)) return "any finite number";
       if (r.hi_is_sanity_limit || !std::isfinite(r.hi))
         return std::string(r.lo_open ? "> " : ">= ") + format_number(r.lo);
-      return std::string(r.lo_open ? "(" : "[") + format_number(r.lo) + ", " +
-             format_number(r.hi) + (r.hi_open ? ")" : "]");
+      return std::string(r.lo_open ? "(" : "[") + format_number(r.lo) + ", " + format_number(r.hi) +
+             (r.hi_open ? ")" : "]");
     }
     case ParamKind::Axis:
       return "`x`, `y`, `z`";

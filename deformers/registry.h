@@ -81,11 +81,11 @@ struct ParamDecl {
   std::string key;  // the JSON key
   ParamKind kind = ParamKind::Number;
   bool required = false;
-  Interval range;           // Number
-  std::string unit;         // for the table: "degrees", "object units", "" ...
-  std::string meaning;      // for the table
-  std::string hint;         // said when a required parameter is missing
-  std::string default_text; // for the table, when not required
+  Interval range;            // Number
+  std::string unit;          // for the table: "degrees", "object units", "" ...
+  std::string meaning;       // for the table
+  std::string hint;          // said when a required parameter is missing
+  std::string default_text;  // for the table, when not required
   std::variant<std::monostate, double DeformerSpec::*, int DeformerSpec::*,
                Eigen::Vector3d DeformerSpec::*>
       field;

@@ -408,9 +408,9 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     if (disk_) {
       std::string error;
       if (!disk_->put(kind, key, save(value), &error))
-        report.warnings.push_back(
-            {"cache_store", "the bake cache " + disk_->dir().string() + " cannot store a " + kind +
-                                " (" + error + "); it will be baked again next time"});
+        report.warnings.push_back({"cache_store", "the bake cache " + disk_->dir().string() +
+                                                      " cannot store a " + kind + " (" + error +
+                                                      "); it will be baked again next time"});
     }
     return Source::Baked;
   };
@@ -441,7 +441,7 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       ++counters_.memory_hits;
       source = Source::Memory;
     } else {
-      tex.depth_cube = bake_depth_cube(mesh, spec.box, implicit.resolution);
+      tex.depth_cube = bake_depth_cube(mesh, spec.box, implicit.resolution, interrupter);
       ++counters_.depth_cube;
       keep(key, std::make_shared<const DepthCube>(tex.depth_cube), value_bytes(tex.depth_cube));
     }
@@ -480,12 +480,12 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   // bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
   const int resolution = tex.moves_nothing ? 2 : spec.deformation_resolution;
   const bool centred = job.centre_on_lower_faces && !tex.moves_nothing;
-  const std::string def_key = (Key() << "deformation\n"
-                                     << deformer_key(spec) << "\nresolution" << resolution
-                                     << (job.centre_on_lower_faces ? "centred on the lower faces"
-                                                                   : "")
-                                     << "residual tolerance" << kResidualVoxels * voxel)
-                                  .str();
+  const std::string def_key =
+      (Key() << "deformation\n"
+             << deformer_key(spec) << "\nresolution" << resolution
+             << (job.centre_on_lower_faces ? "centred on the lower faces" : "")
+             << "residual tolerance" << kResidualVoxels * voxel)
+          .str();
   DeformationRecord record;
   const Source def_source = stage(
       record, "deformation", def_key, counters_.deformation,
@@ -532,7 +532,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
         tex.alpha, "alpha", alpha_key, counters_.alpha,
         [&] { return bake_alpha(*out.deformer, tex.region, spec.alpha_resolution, interrupter); },
         save_alpha, load_alpha);
-    report.stages.push_back(grid_stage(Stage::Alpha, tex.alpha.grid, tex.alpha.bake_seconds, source));
+    report.stages.push_back(
+        grid_stage(Stage::Alpha, tex.alpha.grid, tex.alpha.bake_seconds, source));
   }
 
   if (!tex.moves_nothing) {

@@ -55,9 +55,9 @@ struct StageReport {
   Stage stage = Stage::DistanceGrid;
   Source source = Source::Baked;
   Eigen::Vector3i resolution = Eigen::Vector3i::Zero();  // texels per axis
-  double spacing = 0.0;                                   // texel size, object units
-  std::uint64_t bytes = 0;                                // as the GPU stores it (32-bit)
-  double seconds = 0.0;                                   // the bake's own time, also when read back
+  double spacing = 0.0;                                  // texel size, object units
+  std::uint64_t bytes = 0;                               // as the GPU stores it (32-bit)
+  double seconds = 0.0;                                  // the bake's own time, also when read back
 };
 
 // Something a user should know about a bake. `code` is stable (front ends may key on it); the
@@ -168,9 +168,8 @@ struct PreparedScene {
   int bakes = 0;  // stages baked by this call (not read from memory or the cache)
   std::vector<BoxTextures> textures() const;
 };
-PreparedScene bake_scene(
-    const Scene& scene, BakeSession& session, bool centre_on_lower_faces = false,
-    Interrupter* interrupter = nullptr);
+PreparedScene bake_scene(const Scene& scene, BakeSession& session,
+                         bool centre_on_lower_faces = false, Interrupter* interrupter = nullptr);
 
 // The deformer a scene box asks for (its list composed); errors name the scene file and field.
 std::shared_ptr<const Deformer> make_deformer(const Scene& scene, size_t box_index,

@@ -71,8 +71,8 @@ struct Projection {
 };
 
 // False when the triangle is edge-on or covers no texel centre's bounds.
-bool project(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh, Eigen::Index f,
-             int axis, const DepthMap& grid, Projection& pr) {
+bool project(const std::vector<Eigen::Vector3d>& local, const Mesh& mesh, Eigen::Index f, int axis,
+             const DepthMap& grid, Projection& pr) {
   const int ua = grid.u_axis, va = grid.v_axis;
   const double s = grid.spacing;
   // The 3D normal's component along `axis` has the sign of the projected signed area (u, v) for
@@ -181,8 +181,8 @@ Bands bands_of(const DepthCube& cube, long triangles) {
   Bands b;
   for (int a = 0; a < 3; ++a) {
     const DepthMap& m = cube.maps[2 * a];
-    const long want = std::max(chunks(long(m.nu) * m.nv, kBandTexels),
-                               chunks(triangles, kBandTriangles));
+    const long want =
+        std::max(chunks(long(m.nu) * m.nv, kBandTexels), chunks(triangles, kBandTriangles));
     const int count = static_cast<int>(std::clamp(want, 1L, long(m.nv)));
     b.rows[a] = (m.nv + count - 1) / count;
     b.count[a] = (m.nv + b.rows[a] - 1) / b.rows[a];
@@ -289,7 +289,7 @@ DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
         }
       }
   });
-  std::vector<int> faces[3];           // per axis: the triangles of band 0, then band 1, ...
+  std::vector<int> faces[3];          // per axis: the triangles of band 0, then band 1, ...
   std::vector<size_t> band_start[3];  // per axis: where each band's triangles start in faces
   parallel_for(3, [&](long a) {
     raywarp::poll(interrupter);

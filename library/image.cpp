@@ -23,8 +23,8 @@ void write_to_stream(void* context, void* data, int size) {
 void write_png_file(const std::string& path, const char* what, int width, int height, int comp,
                     const uint8_t* pixels) {
   write_file_atomic(path, [&](std::ostream& out) {
-    if (stbi_write_png_to_func(&write_to_stream, &out, width, height, comp, pixels,
-                               width * comp) == 0)
+    const int stride = width * comp;
+    if (!stbi_write_png_to_func(&write_to_stream, &out, width, height, comp, pixels, stride))
       throw Error(path + ": cannot encode the " + what + " (out of memory?)");
   });
 }

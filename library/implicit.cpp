@@ -246,8 +246,9 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
   size_t measured = 0;
   const size_t expected = wave.size();  // for progress; the growth adds a little
   while (!wave.empty()) {
-    raywarp::poll(interrupter, "distance",
-           kVdbShare + (1.0 - kVdbShare) * std::min(1.0, double(measured) / double(expected)));
+    raywarp::poll(
+        interrupter, "distance",
+        kVdbShare + (1.0 - kVdbShare) * std::min(1.0, double(measured) / double(expected)));
     distance.resize(wave.size());
     parallel_for(
         chunks(wave.size()),

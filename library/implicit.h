@@ -2,8 +2,8 @@
 #pragma once
 #include <functional>
 
-#include "base/interrupt.h"
 #include "base/box.h"
+#include "base/interrupt.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "library/textures.h"

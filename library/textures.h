@@ -6,8 +6,8 @@
 #include <string>
 
 #include "base/box.h"
-#include "library/depth_cube.h"
 #include "base/grid.h"
+#include "library/depth_cube.h"
 
 namespace raywarp {
 

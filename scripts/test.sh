@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # README command 2: set up, build, and run every test (ctest).
 # Usage: scripts/test.sh [BUILD_DIR] [extra cmake arguments...]
+# RAYWARP_TEST_LABELS='unit|smoke' runs only the tests with those labels (docs/testing.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
 scripts/setup.sh "$build" "$@"
 cd "$build"
-ctest --output-on-failure -j "$(nproc 2>/dev/null || echo 2)"
+labels=()
+[ -n "${RAYWARP_TEST_LABELS:-}" ] && labels=(-L "$RAYWARP_TEST_LABELS")
+ctest --output-on-failure -j "$(nproc 2>/dev/null || echo 2)" "${labels[@]}"

@@ -8,13 +8,13 @@
 #include <fstream>
 #include <sstream>
 
-#include "deformers/twist.h"
-#include "cli/animate.h"
 #include "base/error.h"
+#include "cli/animate.h"
+#include "deformers/twist.h"
 #include "library/image.h"
 #include "library/mesh.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 namespace fs = std::filesystem;

@@ -36,10 +36,10 @@
 #include <numbers>
 #include <random>
 
-#include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/deformer.h"
 #include "deformers/twist.h"
+#include "library/deformation_bake.h"
 
 namespace raywarp {
 namespace {

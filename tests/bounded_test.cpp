@@ -8,13 +8,13 @@
 #include <cstdio>
 #include <random>
 
-#include "library/deformation_bake.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
+#include "library/deformation_bake.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
-#include "verify/reference.h"
 #include "library/textures.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 

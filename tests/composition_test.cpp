@@ -11,17 +11,17 @@
 #include <random>
 #include <sstream>
 
+#include "base/error.h"
+#include "cli/pipeline.h"
 #include "deformers/bend.h"
 #include "deformers/box_cut.h"
 #include "deformers/composed.h"
 #include "deformers/twist.h"
-#include "cli/pipeline.h"
-#include "base/error.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 

@@ -9,12 +9,12 @@
 #include <cstdio>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "base/error.h"
+#include "cli/pipeline.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 

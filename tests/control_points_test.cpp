@@ -2,7 +2,6 @@
 // Jacobian against central differences, the Newton inverse and the baked texture's residual, the
 // reproduction of an analytic twist (field and rendered image against the twist's exact ground
 // truth), and ill-posed input.
-#include "library/deformation_bake.h"
 #include "deformers/control_points.h"
 
 #include <gtest/gtest.h>
@@ -17,15 +16,16 @@
 #include <string>
 #include <vector>
 
-#include "deformers/twist.h"
 #include "base/error.h"
+#include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "library/deformation_bake.h"
 #include "library/image.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 namespace raywarp {
 namespace {

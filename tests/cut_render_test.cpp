@@ -15,14 +15,14 @@
 #include <filesystem>
 #include <sstream>
 
-#include "deformers/box_cut.h"
-#include "cli/pipeline.h"
 #include "base/error.h"
+#include "cli/pipeline.h"
+#include "deformers/box_cut.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 
@@ -229,7 +229,8 @@ TEST(Peel, FoldIsReportedAndRenderedFinite) {
   const BakedBox& box = p.prepared.boxes[0];
   EXPECT_TRUE(box.report.folds.folds());
   bool warned = false;
-  for (const std::string& w : box.report.warning_messages()) warned = warned || w.find("folds") != std::string::npos;
+  for (const std::string& w : box.report.warning_messages())
+    warned = warned || w.find("folds") != std::string::npos;
   EXPECT_TRUE(warned);
   for (const Eigen::Vector4f& t : box.textures.deformation.grid.data) ASSERT_TRUE(t.allFinite());
   for (float a : box.textures.alpha.grid.data) ASSERT_TRUE(std::isfinite(a));
@@ -237,8 +238,8 @@ TEST(Peel, FoldIsReportedAndRenderedFinite) {
   Image gl = render_gl(p, camera("front.json"), p.scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   for (float z : gl.depth) EXPECT_FALSE(std::isnan(z));
-  std::printf("[figures] folding peel: folded volume %.4g of %.4g\n", box.report.folds.folded_volume,
-              box.report.folds.box_volume);
+  std::printf("[figures] folding peel: folded volume %.4g of %.4g\n",
+              box.report.folds.folded_volume, box.report.folds.box_volume);
 }
 
 // The alpha map is finite and positive exactly where the cut removes material.

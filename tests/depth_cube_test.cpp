@@ -24,15 +24,15 @@
 #include <sstream>
 #include <tuple>
 
-#include "cli/pipeline.h"
 #include "base/error.h"
+#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
 #include "library/winding.h"
 #include "tests/mesh_fixtures.h"
+#include "verify/reference.h"
 
 namespace raywarp {
 namespace {

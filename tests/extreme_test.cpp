@@ -13,8 +13,8 @@
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 
@@ -49,7 +49,8 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
 
   std::string warnings;
   for (const BakedBox& box : prepared.boxes)
-    for (const std::string& w : box.report.warning_messages()) warnings += (warnings.empty() ? "" : "; ") + w;
+    for (const std::string& w : box.report.warning_messages())
+      warnings += (warnings.empty() ? "" : "; ") + w;
   std::string error = "no exact ground truth (a cut)";
   const BakedBox& box = prepared.boxes[0];
   if (!box.deformer->has_cut()) {

@@ -2,7 +2,6 @@
 // inverse, the analytic Jacobian against central differences, the alpha map against the gap
 // (sign, Lipschitz bound, distance by brute force), folds, the bake, the identity faces and the
 // input checks, for every normal axis and entry face.
-#include "library/deformation_bake.h"
 #include "deformers/incision.h"
 
 #include <gtest/gtest.h>
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "library/deformation_bake.h"
 
 namespace raywarp {
 namespace {

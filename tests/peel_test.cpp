@@ -3,7 +3,6 @@
 // map against the cut (sign, Lipschitz bound, distance by brute force), the folded volume against
 // its closed form, the bake, the identity faces and the input checks, for every curl axis and
 // face.
-#include "library/deformation_bake.h"
 #include "deformers/peel.h"
 
 #include <gtest/gtest.h>
@@ -19,6 +18,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "library/deformation_bake.h"
 
 namespace raywarp {
 namespace {

@@ -10,8 +10,8 @@
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 

@@ -7,14 +7,14 @@
 #include <random>
 #include <sstream>
 
-#include "library/deformation_bake.h"
-#include "deformers/twist.h"
 #include "cli/pipeline.h"
+#include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "library/deformation_bake.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 

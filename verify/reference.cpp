@@ -124,9 +124,9 @@ double bounded_g(const BoxTextures& box, const Vec3& p_def, Vec3* p) {
   return g;
 }
 
-// Sphere tracing of g over [t0, t1] (the shader's RAYWARP_SAMPLING 3), with the linear search's
-// extra samples just before each box face plane (`crossings`, ray parameters). A sample with
-// g > -epsilon is the hit (lo = hi = its t; if g > 0 after a step, which only rounding allows,
+// Sphere tracing of g over [t0, t1] (the shader's RAYWARP_SAMPLING_BOUNDED), with the linear
+// search's extra samples just before each box face plane (`crossings`, ray parameters). A sample
+// with g > -epsilon is the hit (lo = hi = its t; if g > 0 after a step, which only rounding allows,
 // lo is the previous sample). At a face sample, a value within `seam` of the surface also is, as
 // in the linear search. Returns whether it hit; the steps never pass a point where g > 0.
 bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double t0, double t1,

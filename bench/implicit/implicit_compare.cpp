@@ -26,14 +26,14 @@
 #include <string>
 #include <vector>
 
-#include "cli/pipeline.h"
 #include "base/error.h"
+#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
-#include "verify/reference.h"
 #include "library/scene.h"
 #include "tests/mesh_fixtures.h"
+#include "verify/reference.h"
 
 using namespace raywarp;
 namespace fs = std::filesystem;

@@ -1,0 +1,202 @@
+// The library API the front ends use (library/bake.h): one box baked by a job, a distance-grid
+// bake cancelled mid-way (no cache entry, no file, back within 100 ms), re-bake by stage, and
+// every figure read from the BakeReport.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include "library/bake.h"
+#include "library/scene.h"
+
+namespace raywarp {
+namespace {
+
+namespace fs = std::filesystem;
+
+Scene example(const std::string& name) {
+  return load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/" + name);
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("raywarp_bake_job_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+long files_in(const fs::path& dir) {
+  long n = 0;
+  if (fs::exists(dir))
+    for (const auto& e : fs::recursive_directory_iterator(dir)) n += e.is_regular_file();
+  return n;
+}
+
+TEST(BakeJob, BakesOneBoxAndReportsEveryFigure) {
+  const Scene scene = example("bunny_twist.json");
+  BakeSession session;
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  EXPECT_EQ(session.mesh(scene.mesh), mesh);  // loaded and hashed once
+  EXPECT_GT(mesh->stats.faces, 1000);
+  EXPECT_EQ(mesh->hash.size(), 16u);
+
+  std::vector<std::string> stages;
+  Interrupter progress(
+      [&](const std::string& stage, double) {
+        if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+      },
+      0.0);
+  const BakedBox box = session.bake(make_job(scene, 0, mesh), &progress);
+  EXPECT_GT(progress.polls(), 20);
+  EXPECT_NE(std::find(stages.begin(), stages.end(), "distance"), stages.end());
+  EXPECT_NE(std::find(stages.begin(), stages.end(), "deformation texture"), stages.end());
+
+  const BakeReport& r = box.report;
+  EXPECT_EQ(r.deformer, "twist about y by 360\u00b0");
+  EXPECT_EQ(r.parameters, "twist: axis y, angle_deg 360");
+  const StageReport* sdf = r.stage(Stage::DistanceGrid);
+  const StageReport* def = r.stage(Stage::Deformation);
+  ASSERT_TRUE(sdf && def);
+  EXPECT_EQ(r.stage(Stage::Alpha), nullptr);  // no cut
+  EXPECT_EQ(sdf->source, Source::Baked);
+  EXPECT_EQ(sdf->resolution, box.textures.sdf.grid.dims);
+  EXPECT_EQ(sdf->bytes, box.textures.sdf.grid.size() * 4);
+  EXPECT_GT(sdf->seconds, 0.0);
+  EXPECT_DOUBLE_EQ(sdf->spacing, box.textures.sdf.grid.spacing);
+  EXPECT_EQ(def->resolution, box.textures.deformation.grid.dims);
+  EXPECT_EQ(def->resolution.maxCoeff(), scene.boxes[0].deformation_resolution);
+  EXPECT_EQ(def->bytes, box.textures.deformation.grid.size() * 16);
+  EXPECT_DOUBLE_EQ(r.voxel, sdf->spacing);
+  EXPECT_GT(r.active_voxels, 1000);
+  EXPECT_FALSE(r.sign_method.empty());
+  EXPECT_GT(r.lipschitz, 1.0);
+  EXPECT_TRUE(std::isfinite(r.lipschitz));
+  EXPECT_GT(r.texture_error, 0.0);
+  EXPECT_LT(r.texture_error_voxels(), 1.0);
+  EXPECT_GT(r.residual.texels, 1000);
+  EXPECT_EQ(r.residual.over_tolerance, 0);
+  EXPECT_FALSE(r.folds.folds());
+  EXPECT_GT(r.folds.box_volume, 0.0);
+  EXPECT_TRUE(r.warnings.empty());
+  std::printf(
+      "[figures] bunny twist job: grid %dx%dx%d (%.1f MiB, %.2f s), D %dx%dx%d (%.1f MiB, %.2f s), "
+      "|I + J_D| <= %.3g, texture error %.3g voxels, residual max %.3g\n",
+      sdf->resolution.x(), sdf->resolution.y(), sdf->resolution.z(), sdf->bytes / 1048576.0,
+      sdf->seconds, def->resolution.x(), def->resolution.y(), def->resolution.z(),
+      def->bytes / 1048576.0, def->seconds, r.lipschitz, r.texture_error_voxels(), r.residual.max);
+}
+
+TEST(BakeJob, ChangingTheAngleRebakesOnlyTheDeformationTexture) {
+  Scene scene = example("bunny_twist.json");
+  const fs::path dir = fresh_dir("stages");
+  BakeCache cache(dir);
+  BakeSession session(&cache);
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);
+  EXPECT_EQ(session.counters().deformation, 1);
+
+  scene.boxes[0].deformer.angle_deg = 200;
+  const BakedBox second = session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);  // from memory
+  EXPECT_EQ(session.counters().deformation, 2);
+  EXPECT_EQ(second.report.stage(Stage::DistanceGrid)->source, Source::Memory);
+  EXPECT_EQ(second.report.stage(Stage::Deformation)->source, Source::Baked);
+
+  // The same job again bakes nothing; a new session reads both stages from the disk cache.
+  session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().baked(), 3);
+  BakeSession later(&cache);
+  const BakedBox again = later.bake(make_job(scene, 0, later.mesh(scene.mesh)));
+  EXPECT_EQ(later.counters().baked(), 0);
+  EXPECT_EQ(later.counters().disk_hits, 2);
+  EXPECT_EQ(again.report.stage(Stage::DistanceGrid)->source, Source::Disk);
+  EXPECT_EQ(again.textures.deformation.grid.data, second.textures.deformation.grid.data);
+  fs::remove_all(dir);
+}
+
+// A distance grid big enough to take a while (the dragon at 384^3), cancelled from another
+// thread once its bake is under way: the bake throws Cancelled promptly, stores nothing, and the
+// session bakes the next job at once.
+TEST(BakeJob, CancelledDistanceGridLeavesNothingBehind) {
+  const fs::path dragon = fs::path(RAYWARP_DATA_DIR) / "dragon_res2.ply";
+  if (!fs::exists(dragon)) GTEST_SKIP() << "no " << dragon;
+  Scene scene = example("study/dragon_twist.json");
+  scene.mesh = dragon;
+  scene.boxes[0].implicit.resolution = 384;
+  const fs::path dir = fresh_dir("cancel");
+  BakeCache cache(dir);
+  BakeSession session(&cache);
+  const MeshPtr mesh = session.mesh(scene.mesh);
+
+  std::atomic<bool> started{false};
+  Interrupter interrupter([&](const std::string&, double) { started = true; }, 0.0);
+  std::chrono::steady_clock::time_point cancelled_at, returned_at;
+  std::thread canceller([&] {
+    while (!started) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    cancelled_at = std::chrono::steady_clock::now();
+    interrupter.cancel();
+  });
+  bool threw = false;
+  try {
+    session.bake(make_job(scene, 0, mesh), &interrupter);
+  } catch (const Cancelled&) {
+    threw = true;
+  }
+  returned_at = std::chrono::steady_clock::now();
+  canceller.join();
+  ASSERT_TRUE(threw) << "the bake finished before it was cancelled";
+  const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
+  std::printf("[figures] distance grid 384^3 of the dragon: cancel returned after %.1f ms\n", ms);
+#if defined(__SANITIZE_ADDRESS__)
+  EXPECT_LT(ms, 1000.0);  // the sanitizers slow every poll's chunk of work several-fold
+#else
+  EXPECT_LT(ms, 100.0);
+#endif
+  EXPECT_EQ(session.counters().baked(), 0);
+  EXPECT_EQ(session.memory_bytes(), 0u);
+  EXPECT_EQ(files_in(dir), 0);  // no cache entry, no temporary file
+
+  // The next job starts at once and completes.
+  scene.boxes[0].implicit.resolution = 64;
+  const BakedBox next = session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);
+  EXPECT_EQ(next.report.stage(Stage::DistanceGrid)->resolution.maxCoeff(), 64 + 4);
+  EXPECT_GE(files_in(dir), 2);
+  fs::remove_all(dir);
+}
+
+TEST(BakeJob, CutReportsItsAlphaStageAndWarningsAreCoded) {
+  const Scene scene = example("bunny_peel.json");
+  BakeSession session;
+  const BakedBox box = session.bake(make_job(scene, 0, session.mesh(scene.mesh)));
+  const StageReport* alpha = box.report.stage(Stage::Alpha);
+  ASSERT_NE(alpha, nullptr);
+  EXPECT_EQ(alpha->resolution, box.textures.alpha.grid.dims);
+  EXPECT_EQ(alpha->resolution.maxCoeff(), scene.boxes[0].alpha_resolution);
+  for (const BakeWarning& w : box.report.warnings) {
+    EXPECT_FALSE(w.code.empty());
+    EXPECT_FALSE(w.message.empty());
+  }
+}
+
+TEST(BakeJob, ErrorsNameTheBox) {
+  Scene scene = example("bunny_twist.json");
+  scene.boxes[0].deformer.type = "stretch";
+  scene.boxes[0].deformer.factor = 50;  // beyond what a 5.8-unit box allows
+  BakeSession session;
+  try {
+    session.bake(make_job(scene, 0, session.mesh(scene.mesh)));
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("boxes[0].deformer.stretch factor = 50"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace raywarp
