@@ -600,8 +600,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
             .str();
     const Source source = stage(
         tex.step_bounds, "bounds", bounds_key, counters_.step_bounds,
-        [&] { return bake_step_bounds(tex.sdf, tex.deformation); }, save_step_bounds,
-        load_step_bounds);
+        [&] { return bake_step_bounds(tex.sdf, tex.deformation, 8, interrupter); },
+        save_step_bounds, load_step_bounds);
     const StepBounds& sb = tex.step_bounds;
     StageReport s = grid_stage(Stage::StepBounds, sb.bricks, 0.0, source);
     s.bytes += grid_bytes(sb.sdf_bricks);

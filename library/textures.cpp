@@ -121,13 +121,35 @@ double cell_slope(const Grid3<float>& grid, int i, int j, int k) {
 
 // Bricks of `cells_per_brick`^3 cells over a grid of `dims` texels: the grid of their bounds
 // (origin at the first texel centre), each the largest `per_cell` of its cells.
+// Polls `interrupter` every 2^14 cells of `total` (a few milliseconds of work).
+class CellPoller {
+ public:
+  CellPoller(Interrupter* interrupter, const char* stage, const Eigen::Vector3i& dims)
+      : interrupter_(interrupter),
+        stage_(stage),
+        total_(double((dims.array() - 1).max(1).prod())) {}
+  void operator()() {
+    if (interrupter_ && (++count_ & 0x3fff) == 0)
+      interrupter_->poll(stage_, double(count_) / total_);
+  }
+
+ private:
+  Interrupter* interrupter_;
+  const char* stage_;
+  double total_;
+  long count_ = 0;
+};
+
 template <class Grid, class F>
-Grid3<float> brick_maxima(const Grid& grid, int cells_per_brick, F&& per_cell) {
+Grid3<float> brick_maxima(const Grid& grid, int cells_per_brick, F&& per_cell,
+                          Interrupter* interrupter) {
   const Eigen::Vector3i cells = (grid.dims.array() - 1).max(1);
   const Eigen::Vector3i nb = (cells.array() + cells_per_brick - 1) / cells_per_brick;
   Grid3<float> raw(grid.origin + Eigen::Vector3d::Constant(0.5 * grid.spacing),
                    grid.spacing * cells_per_brick, nb, 0.0f);
+  CellPoller poll(interrupter, "step bounds", grid.dims);
   for_each_cell(grid.dims, [&](int i, int j, int k) {
+    poll();
     float& brick = raw.at(i / cells_per_brick, j / cells_per_brick, k / cells_per_brick);
     brick = std::max(brick, static_cast<float>(per_cell(i, j, k)));
   });
@@ -156,28 +178,31 @@ Grid3<float> dilate_at_least_one(const Grid3<float>& raw) {
 
 }  // namespace
 
-double interpolant_lipschitz(const Grid3<float>& grid) {
+double interpolant_lipschitz(const Grid3<float>& grid, Interrupter* interrupter) {
   if (grid.data.empty()) return 0.0;
   double worst = 0.0;
-  for_each_cell(grid.dims,
-                [&](int i, int j, int k) { worst = std::max(worst, cell_slope(grid, i, j, k)); });
+  CellPoller poll(interrupter, "step bounds", grid.dims);
+  for_each_cell(grid.dims, [&](int i, int j, int k) {
+    poll();
+    worst = std::max(worst, cell_slope(grid, i, j, k));
+  });
   return worst;
 }
 
 StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
-                            int brick_cells) {
+                            int brick_cells, Interrupter* interrupter) {
   StepBounds out;
   out.brick_cells = std::max(1, brick_cells);
   const Grid3<Eigen::Vector4f>& d = deformation.grid;
   if (d.data.empty() || sdf.grid.data.empty()) return out;
-  const Grid3<float> f_raw = brick_maxima(sdf.grid, out.brick_cells, [&](int i, int j, int k) {
-    return cell_slope(sdf.grid, i, j, k);
-  });
+  const Grid3<float> f_raw = brick_maxima(
+      sdf.grid, out.brick_cells, [&](int i, int j, int k) { return cell_slope(sdf.grid, i, j, k); },
+      interrupter);
   out.sdf_lipschitz = *std::max_element(f_raw.data.begin(), f_raw.data.end());
   out.sdf_bricks = dilate_at_least_one(f_raw);
   Grid3<float> validity(d.origin, d.spacing, d.dims);
   for (size_t i = 0; i < d.data.size(); ++i) validity.data[i] = d.data[i].w();
-  out.validity_lipschitz = interpolant_lipschitz(validity);
+  out.validity_lipschitz = interpolant_lipschitz(validity, interrupter);
 
   // Per cell: in a cell, column a of J_D is a bilinear blend of the cell's four a-edge
   // differences (/ spacing). With J0 their mean per column, ||I + J(x)|| <= ||I + J0|| +
@@ -210,7 +235,7 @@ StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& d
     const double norm = std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
     return (norm + std::sqrt(deviation)) * kBoundMargin;
   };
-  out.bricks = dilate_at_least_one(brick_maxima(d, out.brick_cells, cell_norm));
+  out.bricks = dilate_at_least_one(brick_maxima(d, out.brick_cells, cell_norm, interrupter));
   return out;
 }
 

@@ -7,6 +7,7 @@
 
 #include "base/box.h"
 #include "base/grid.h"
+#include "base/interrupt.h"
 #include "library/depth_cube.h"
 
 namespace raywarp {
@@ -84,11 +85,11 @@ struct StepBounds {
 // A bound of |grad| of the trilinear interpolant of a scalar grid: in a cell, d/dx is a bilinear
 // blend of the cell's four x-edge differences (/ spacing), so |grad| <= sqrt(sum over axes of the
 // largest edge difference squared). The largest over all cells. Clamp-to-edge adds no slope.
-double interpolant_lipschitz(const Grid3<float>& grid);
+double interpolant_lipschitz(const Grid3<float>& grid, Interrupter* interrupter = nullptr);
 // StepBounds of a box's textures, with bricks of `brick_cells` cells. Call after the textures
 // take their final values (after round_textures_to_half).
 StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& deformation,
-                            int brick_cells = 8);
+                            int brick_cells = 8, Interrupter* interrupter = nullptr);
 // At p' (box frame) with preimage p = p' + D(p'): the Lipschitz bound L_f(p) L_D(p') of g, and
 // the longest step it holds for, min(B_D, B_f / L_D(p')).
 struct StepBound {

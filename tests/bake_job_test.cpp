@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <thread>
 
 #include "library/bake.h"
@@ -167,6 +168,79 @@ TEST(BakeJob, CancelledDistanceGridLeavesNothingBehind) {
   EXPECT_EQ(next.report.stage(Stage::DistanceGrid)->resolution.maxCoeff(), 64 + 4);
   EXPECT_GE(files_in(dir), 2);
   fs::remove_all(dir);
+}
+
+// Every stage of a bake polls: cancelled as soon as it reports, each throws Cancelled within
+// 100 ms and leaves nothing in the session.
+TEST(BakeJob, EveryStageCancelsPromptly) {
+  struct Case {
+    std::string scene, stage;
+    std::function<void(Scene&)> edit;
+    long before = 0;  // stages that finish before the cancelled one
+  };
+  const std::vector<Case> cases = {
+      {"bunny_twist.json", "distance", [](Scene&) {}},
+      {"bunny_twist.json", "sign", [](Scene&) {}},
+      {"bunny_twist.json", "deformation texture",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
+      {"bunny_twist.json", "deformation texture: error",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
+      {"bunny_twist.json", "deformation texture: inverse residual",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
+      {"bunny_twist.json", "folds", [](Scene&) {}, 1},
+      {"bunny_control_points.json", "deformation texture",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 128; }, 1},
+      {"bunny_peel.json", "alpha map", [](Scene& s) { s.boxes[0].alpha_resolution = 256; }, 2},
+      {"bunny_twist.json", "step bounds",
+       [](Scene& s) {
+         s.render.sampling = "bounded";
+         s.boxes[0].deformation_resolution = 256;
+       },
+       2},
+      {"bunny_twist.json", "depth cube",
+       [](Scene& s) {
+         s.boxes[0].implicit.type = "depth_cube";
+         s.boxes[0].implicit.resolution = 2048;
+       }},
+  };
+  for (const Case& c : cases) {
+    Scene scene = example(c.scene);
+    c.edit(scene);
+    BakeSession session;
+    const MeshPtr mesh = session.mesh(scene.mesh);
+    std::chrono::steady_clock::time_point cancelled_at{};
+    Interrupter* self = nullptr;
+    Interrupter interrupter(
+        [&](const std::string& stage, double) {
+          if (stage == c.stage && !self->cancelled()) {
+            cancelled_at = std::chrono::steady_clock::now();
+            self->cancel();
+          }
+        },
+        0.0);
+    self = &interrupter;
+    bool threw = false;
+    try {
+      session.bake(make_job(scene, 0, mesh), &interrupter);
+    } catch (const Cancelled&) {
+      threw = true;
+    }
+    const auto returned_at = std::chrono::steady_clock::now();
+    ASSERT_TRUE(threw) << c.scene << ": stage \"" << c.stage << "\" never reported";
+    const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
+    std::printf("[figures] %s, cancelled in \"%s\": returned after %.2f ms\n", c.scene.c_str(),
+                c.stage.c_str(), ms);
+#if defined(__SANITIZE_ADDRESS__)
+    EXPECT_LT(ms, 1000.0) << c.stage;
+#else
+    EXPECT_LT(ms, 100.0) << c.stage;
+#endif
+    // What finished before the cancel stays; the cancelled stage left nothing.
+    EXPECT_EQ(session.counters().baked(), c.before) << c.stage;
+    if (c.before == 0) {
+      EXPECT_EQ(session.memory_bytes(), 0u) << c.stage;
+    }
+  }
 }
 
 TEST(BakeJob, CutReportsItsAlphaStageAndWarningsAreCoded) {
