@@ -173,6 +173,9 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
   PreparedScene prepared;
   double baked_angle = 0.0;
   double baked_lipschitz = 0.0;
+  // One session for the sequence: the mesh is loaded once, and what a frame does not change
+  // (the distance grid) is read from memory.
+  BakeSession session(opt.cache);
   if (result.mapped) {
     // Bake once, at the frame with the largest |angle|.
     const AnimatedParam& p = opt.params[0];
@@ -182,7 +185,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
         << shortest_text(p.to) << " over " << opt.frames
         << " frames by the texture map M of eq. 2: one bake, at " << shortest_text(baked_angle)
         << " degrees\n";
-    prepared = prepare_scene(scenes[widest], log, opt.cache, true);
+    prepared = prepare_scene(scenes[widest], log, session, true);
     ++result.bakes;
     result.textures_baked += prepared.bakes;
     renderer.set_mesh(prepared.mesh);
@@ -217,7 +220,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       what = "mapped (s = " + fmt("%.4g", s) + ", no bake)";
     } else {
       std::ostringstream bake_log;
-      prepared = prepare_scene(scenes[f], bake_log, opt.cache);
+      prepared = prepare_scene(scenes[f], bake_log, session);
       ++result.bakes;
       result.textures_baked += prepared.bakes;
       renderer.set_mesh(prepared.mesh);
@@ -226,7 +229,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
         for (const auto& w : b.report.warning_messages())
           log << "frame " << f << ": warning: " << w << "\n";
       what = "re-baked (" + std::to_string(prepared.bakes) +
-             " textures baked, the rest from the "
+             " textures baked, the rest from memory or the "
              "cache) in " +
              fmt("%.2f", seconds_since(start)) + " s";
     }
