@@ -132,7 +132,7 @@ CutRow cut_row(const std::string& name, const std::string& path, int frames, int
     std::ostringstream log;
     PreparedScene prepared = prepare_scene(scene, log);
     gl::Renderer renderer;
-    renderer.set_mesh(prepared.mesh);
+    renderer.set_mesh(prepared.mesh());
     renderer.set_boxes(prepared.textures());
     if (kind == 1) row.box_screen = screen_fraction(cam, size, prepared.boxes[0].textures);
     for (int skip = 0; skip < 2; ++skip) {

@@ -188,7 +188,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
     prepared = prepare_scene(scenes[widest], log, session, true);
     ++result.bakes;
     result.textures_baked += prepared.bakes;
-    renderer.set_mesh(prepared.mesh);
+    renderer.set_mesh(prepared.mesh());
     renderer.set_boxes(prepared.textures());
     baked_lipschitz = prepared.boxes[mapped_box].textures.lipschitz;
   } else {
@@ -223,7 +223,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       prepared = prepare_scene(scenes[f], bake_log, session);
       ++result.bakes;
       result.textures_baked += prepared.bakes;
-      renderer.set_mesh(prepared.mesh);
+      renderer.set_mesh(prepared.mesh());
       renderer.set_boxes(prepared.textures());
       for (const auto& b : prepared.boxes)
         for (const auto& w : b.report.warning_messages())

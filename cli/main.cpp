@@ -107,7 +107,7 @@ int run_render(const RenderOptions& opt) {
   auto context = gl::create_context(opt.context);
   std::cerr << "context: " << context->description() << "\n";
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   Image image = renderer.render(camera, size.x(), size.y(), scene.render, &stats);

@@ -81,9 +81,7 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeSession& 
                             bool centre_on_lower_faces) {
   PreparedScene out;
   out.handle = session.mesh(scene.mesh);
-  out.mesh = out.handle->mesh;
-  out.stats = out.handle->stats;
-  log << "mesh: " << describe(out.stats) << " (" << fmt("%.2f", out.handle->load_seconds)
+  log << "mesh: " << describe(out.stats()) << " (" << fmt("%.2f", out.handle->load_seconds)
       << " s)\n";
   const long before = session.counters().baked();
   for (size_t i = 0; i < scene.boxes.size(); ++i) {

@@ -127,7 +127,7 @@ void measure(StabilityCase& c, int size, int frames) {
   c.textures_finite = textures_finite(prepared);
 
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   Image image;
   std::vector<double> ms;
@@ -148,14 +148,14 @@ void measure(StabilityCase& c, int size, int frames) {
   // The exact ground truth of box 0: the mesh split at the box faces, subdivided to half a voxel
   // and mapped by the exact forward map. A cut removes material, which a mapped mesh cannot show.
   bool have_truth = true;
-  Mesh truth_mesh = prepared.mesh;
+  Mesh truth_mesh = prepared.mesh();
   if (!prepared.boxes.empty()) {
     const BakedBox& box = prepared.boxes[0];
     if (box.deformer->has_cut()) {
       have_truth = false;
     } else {
       auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
-      truth_mesh = ground_truth_mesh(prepared.mesh, box.textures.box, F,
+      truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F,
                                      0.5 * implicit_spacing(box.textures));
     }
   }

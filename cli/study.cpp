@@ -173,7 +173,7 @@ Mesh subdivide(const Mesh& mesh, int levels) {
 
 // The object-space peer: vertices inside a box moved by its exact forward map.
 Mesh object_space_mesh(const PreparedScene& prepared, int levels) {
-  Mesh m = subdivide(prepared.mesh, levels);
+  Mesh m = subdivide(prepared.mesh(), levels);
   for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
     Eigen::Vector3d p = m.V.row(i).transpose();
     for (const BakedBox& b : prepared.boxes) {
@@ -199,11 +199,11 @@ struct Truth {
 Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Camera& camera,
                    int size) {
   Truth t;
-  t.diagonal = mesh_bounds(prepared.mesh).diagonal().norm();
+  t.diagonal = mesh_bounds(prepared.mesh()).diagonal().norm();
   bool any_cut = false;
   for (const BakedBox& b : prepared.boxes) any_cut = any_cut || b.deformer->has_cut();
   if (!any_cut) {
-    Mesh m = prepared.mesh;
+    Mesh m = prepared.mesh();
     for (const BakedBox& b : prepared.boxes) {
       auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
       m = ground_truth_mesh(m, b.textures.box, F, 0.25 * implicit_spacing(b.textures));
@@ -220,14 +220,14 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
     const BoxSpec& spec = scene.boxes[0];
     if (const auto* cut = dynamic_cast<const BoxCut*>(b.deformer.get());
         cut && spec.cut_mode != CutMode::ThickShell) {
-      t.image = exact_cut_render(prepared.mesh, b.textures.box, cut->region(), spec.cut_mode,
+      t.image = exact_cut_render(prepared.mesh(), b.textures.box, cut->region(), spec.cut_mode,
                                  camera, size, size, scene.render);
       t.kind = "exact: every triangle along each ray (BVH, double), the cut's region subtracted";
       return t;
     }
     if (spec.deformer.type == "incision" && spec.cut_mode == CutMode::Hollow) {
       auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
-      Mesh m = ground_truth_mesh(prepared.mesh, b.textures.box, F,
+      Mesh m = ground_truth_mesh(prepared.mesh(), b.textures.box, F,
                                  0.25 * implicit_spacing(b.textures), spec.deformer.axis);
       t.image = rasterize(m, camera, size, size, scene.render);
       t.kind = "exact: the mesh split at the box faces and the cut plane, mapped from each side";
@@ -242,7 +242,7 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
   fine.step_voxels = 1.0 / 16.0;
   fine.refine_steps = 16;
   fine.max_steps = 100000;
-  t.image = reference_render(prepared.mesh, prepared.textures(), camera, size, size, fine);
+  t.image = reference_render(prepared.mesh(), prepared.textures(), camera, size, size, fine);
   t.kind =
       "not exact: the CPU ray cast of the scene's own textures at 1/16-voxel steps (no exact "
       "form for this cut; the figures show the sampling's error only)";
@@ -583,7 +583,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       p.method = "bounded";
       const PreparedScene& prepared = bake(p);
       gl::Renderer renderer;
-      renderer.set_mesh(prepared.mesh);
+      renderer.set_mesh(prepared.mesh());
       renderer.set_boxes(prepared.textures());
       RenderSettings settings = scene.render;
       settings.sampling = "bounded";
@@ -608,7 +608,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       Image image;
       gl::Renderer renderer;
       if (p.method == "object-space") {
-        const long triangles = static_cast<long>(base.mesh.F.rows()) << (2 * p.levels);
+        const long triangles = static_cast<long>(base.mesh().F.rows()) << (2 * p.levels);
         if (triangles > kMaxObjectSpaceTriangles) {
           progress << "  [" << pi + 1 << "/" << points.size() << "] object-space (subdivision "
                    << p.levels << "): skipped, " << triangles << " triangles exceed the study's "
@@ -631,7 +631,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         settings.texture_bits = p.bits;
         if (p.method == "bounded")
           settings.max_steps = std::max(settings.max_steps, kBoundedMaxSteps);
-        renderer.set_mesh(prepared.mesh);
+        renderer.set_mesh(prepared.mesh());
         renderer.set_boxes(prepared.textures());
         r.memory_bytes = renderer.texture_bytes();
         const BoxTextures& t = prepared.boxes[0].textures;
@@ -660,7 +660,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       const int gs = options.goal_size;
       const Truth goal_truth = ground_truth(scene, base, camera, gs);
       gl::Renderer renderer;
-      renderer.set_mesh(base.mesh);
+      renderer.set_mesh(base.mesh());
       renderer.set_boxes(base.textures());
       Goal g;
       g.scene = name;

@@ -63,6 +63,14 @@ class Deformer {
   virtual bool moves_nothing() const { return false; }
 };
 
+// Each entry of a vector or matrix clamped to +-DBL_MAX: a result that overflowed to +-inf comes
+// back finite (a NaN stays NaN).
+template <typename M>
+M clamp_finite(const M& m) {
+  constexpr double big = std::numeric_limits<double>::max();
+  return m.cwiseMax(-big).cwiseMin(big);
+}
+
 // Shortest decimal text that reads back as x ("360", "1e-06"), for messages.
 std::string shortest_text(double x);
 // Throws Error "<what> half_extents[i] = v: must be > 0 and finite" for a bad box.

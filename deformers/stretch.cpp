@@ -13,13 +13,6 @@ namespace {
 
 constexpr double kMaxFactor = 10.0;
 
-// Each entry clamped to +-DBL_MAX: a result that overflowed to +-inf comes back finite.
-template <typename M>
-M finite(const M& m) {
-  constexpr double big = std::numeric_limits<double>::max();
-  return m.cwiseMax(-big).cwiseMin(big);
-}
-
 // The accepted factors for a box of length L along the axis (stretch.h): lo < f < hi, or f <= hi
 // when hi is the cap kMaxFactor.
 struct FactorRange {
@@ -58,7 +51,7 @@ class Stretch final : public Deformer {
     Eigen::Vector3d out = scale(z) * q;
     // Blender's z (1 + k) + dcut, dcut = q_a - z; the pivot is added back.
     out[a_] = (z * (1.0 + k_) + (qa - z)) - h_[a_];
-    return finite(out);
+    return clamp_finite(out);
   }
 
   Eigen::Matrix3d jacobian(const Eigen::Vector3d& p) const override {
@@ -72,7 +65,7 @@ class Stretch final : public Deformer {
       const double g = 2.0 * (k_ * qa);
       for (int i : {(a_ + 1) % 3, (a_ + 2) % 3}) J(i, a_) = g * q[i];
     }
-    return finite(J);
+    return clamp_finite(J);
   }
 
   Eigen::Vector3d inverse(const Eigen::Vector3d& p_def) const override {
@@ -81,7 +74,7 @@ class Stretch final : public Deformer {
     const double z = std::clamp(qa_def / (1.0 + k_), 0.0, length_);
     Eigen::Vector3d out = q / scale(z);
     out[a_] = (qa_def - k_ * z) - h_[a_];
-    return finite(out);
+    return clamp_finite(out);
   }
 
   std::array<bool, 6> identity_faces() const override {

@@ -13,13 +13,6 @@ namespace {
 
 constexpr double kMaxFactor = 10.0;
 
-// Each entry clamped to +-DBL_MAX: a result that overflowed to +-inf comes back finite.
-template <typename M>
-M finite(const M& m) {
-  constexpr double big = std::numeric_limits<double>::max();
-  return m.cwiseMax(-big).cwiseMin(big);
-}
-
 class Taper final : public Deformer {
  public:
   Taper(const Eigen::Vector3d& half_extents, Axis axis, double factor)
@@ -39,7 +32,7 @@ class Taper final : public Deformer {
     const double s = scale(q[a_]);
     Eigen::Vector3d out = s * q;
     out[a_] = q[a_];  // the axis coordinate is kept, bit for bit
-    return finite(out);
+    return clamp_finite(out);
   }
 
   Eigen::Matrix3d jacobian(const Eigen::Vector3d& p) const override {
@@ -52,7 +45,7 @@ class Taper final : public Deformer {
       const double g = f_ / length_;
       for (int i : {(a_ + 1) % 3, (a_ + 2) % 3}) J(i, a_) = g * q[i];
     }
-    return finite(J);
+    return clamp_finite(J);
   }
 
   Eigen::Vector3d inverse(const Eigen::Vector3d& p_def) const override {
@@ -60,7 +53,7 @@ class Taper final : public Deformer {
     const double s = scale(q[a_]);  // q'_a = q_a: the same slice, the same scale
     Eigen::Vector3d out = q / s;
     out[a_] = q[a_];
-    return finite(out);
+    return clamp_finite(out);
   }
 
   std::array<bool, 6> identity_faces() const override {

@@ -629,8 +629,6 @@ PreparedScene bake_scene(const Scene& scene, BakeSession& session, bool centre_o
                          Interrupter* interrupter) {
   PreparedScene out;
   out.handle = session.mesh(scene.mesh);
-  out.mesh = out.handle->mesh;
-  out.stats = out.handle->stats;
   const long before = session.counters().baked();
   for (size_t i = 0; i < scene.boxes.size(); ++i)
     out.boxes.push_back(

@@ -161,9 +161,9 @@ class BakeSession {
 
 // A whole scene's boxes, baked in one session (the command line and the tests use it).
 struct PreparedScene {
-  MeshPtr handle;  // the session's mesh; `mesh` and `stats` are copies for convenience
-  Mesh mesh;
-  MeshStats stats;
+  MeshPtr handle;  // the session's mesh, shared with its jobs
+  const Mesh& mesh() const { return handle->mesh; }
+  const MeshStats& stats() const { return handle->stats; }
   std::vector<BakedBox> boxes;
   int bakes = 0;  // stages baked by this call (not read from memory or the cache)
   std::vector<BoxTextures> textures() const;

@@ -137,13 +137,13 @@ void check_against_truth(const std::string& scene_file, const std::string& name)
 
   context();
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   Image image = renderer.render(camera, kSize, kSize, scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
 
-  Mesh truth_mesh = prepared.mesh;
+  Mesh truth_mesh = prepared.mesh();
   for (const auto& b : prepared.boxes) {
     auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
     truth_mesh =
@@ -153,7 +153,7 @@ void check_against_truth(const std::string& scene_file, const std::string& name)
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_truth = compare_images(image, truth, 0.01 * diagonal);
   Image cpu =
-      reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
+      reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);
   ImageComparison vs_cpu = compare_images(image, cpu, 0.01 * diagonal);
   std::printf(
       "[figures] %s: %zu boxes; GL vs ground truth: IoU %.4f, over 1%% of diag %.2f%%, mean "

@@ -29,12 +29,12 @@ TEST(Context, EglRendersTheReferenceImage) {
   EXPECT_NE(context->description().find("EGL"), std::string::npos);
   constexpr int kSize = 192;
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   Image image = renderer.render(*scene.camera, kSize, kSize, scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
-  Image cpu = reference_render(prepared.mesh, prepared.textures(), *scene.camera, kSize, kSize,
+  Image cpu = reference_render(prepared.mesh(), prepared.textures(), *scene.camera, kSize, kSize,
                                scene.render);
   ImageComparison c = compare_images(image, cpu, 0.01 * 15.8);
   std::printf("[figures] %s: frame %.1f ms; vs CPU reference IoU %.4f, over %.2f%%\n",

@@ -59,7 +59,7 @@ Image render_gl(const Prepared& p, const Camera& cam, const RenderSettings& sett
                 gl::FrameStats* stats = nullptr) {
   context();
   gl::Renderer renderer;
-  renderer.set_mesh(p.prepared.mesh);
+  renderer.set_mesh(p.prepared.mesh());
   renderer.set_boxes(p.prepared.textures());
   return renderer.render(cam, kSize, kSize, settings, stats);
 }
@@ -103,15 +103,15 @@ TEST_P(BoxCutTest, MatchesExactReference) {
   gl::FrameStats stats;
   Image gl = render_gl(p, cam, p.scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
-  Image exact = exact_cut_render(p.prepared.mesh, box.textures.box, cut->region(), mode, cam, kSize,
-                                 kSize, p.scene.render);
+  Image exact = exact_cut_render(p.prepared.mesh(), box.textures.box, cut->region(), mode, cam,
+                                 kSize, kSize, p.scene.render);
   Image cpu =
-      reference_render(p.prepared.mesh, p.prepared.textures(), cam, kSize, kSize, p.scene.render);
+      reference_render(p.prepared.mesh(), p.prepared.textures(), cam, kSize, kSize, p.scene.render);
   const std::string name = case_name(GetParam());
   save(name + "_gl", gl);
   save(name + "_exact", exact);
   save(name + "_cpu", cpu);
-  const double diagonal = diagonal_of(p.prepared.mesh);
+  const double diagonal = diagonal_of(p.prepared.mesh());
   ImageComparison vs_exact = report(name, "exact", gl, exact, diagonal);
   ImageComparison vs_cpu = report(name, "CPU reference", gl, cpu, diagonal);
   EXPECT_GE(vs_exact.iou, 0.98);
@@ -147,11 +147,11 @@ TEST_P(IncisionTest, HollowMatchesSplitGroundTruth) {
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   auto F = [&](const Eigen::Vector3d& q) { return box.deformer->forward(q); };
   const int cut_axis = p.scene.boxes[0].deformer.axis;
-  Mesh truth_mesh = ground_truth_mesh(p.prepared.mesh, box.textures.box, F,
+  Mesh truth_mesh = ground_truth_mesh(p.prepared.mesh(), box.textures.box, F,
                                       0.25 * box.textures.sdf.grid.spacing, cut_axis);
   Image truth = rasterize(truth_mesh, cam, kSize, kSize, p.scene.render);
   Image cpu =
-      reference_render(p.prepared.mesh, p.prepared.textures(), cam, kSize, kSize, p.scene.render);
+      reference_render(p.prepared.mesh(), p.prepared.textures(), cam, kSize, kSize, p.scene.render);
   const std::string name = "bunny_incision_hollow_" + GetParam().substr(0, GetParam().size() - 5);
   save(name + "_gl", gl);
   save(name + "_truth", truth);
@@ -180,11 +180,11 @@ TEST_P(CpuReferenceTest, MatchesCpuReference) {
   Image gl = render_gl(p, cam, p.scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   Image cpu =
-      reference_render(p.prepared.mesh, p.prepared.textures(), cam, kSize, kSize, p.scene.render);
+      reference_render(p.prepared.mesh(), p.prepared.textures(), cam, kSize, kSize, p.scene.render);
   const std::string name = GetParam().substr(0, GetParam().size() - 5);
   save(name + "_gl", gl);
   save(name + "_cpu", cpu);
-  ImageComparison c = report(name, "CPU reference", gl, cpu, diagonal_of(p.prepared.mesh));
+  ImageComparison c = report(name, "CPU reference", gl, cpu, diagonal_of(p.prepared.mesh()));
   EXPECT_GE(c.iou, 0.99);
   EXPECT_LE(c.fraction_over, 0.01);
 }
@@ -207,7 +207,7 @@ TEST_P(SkippingTest, SameImageWithAndWithout) {
   without.skipping = false;
   Image a = render_gl(p, cam, with), b = render_gl(p, cam, without);
   const std::string name = GetParam().substr(0, GetParam().size() - 5) + "_skipping";
-  ImageComparison c = report(name, "no skipping", a, b, diagonal_of(p.prepared.mesh));
+  ImageComparison c = report(name, "no skipping", a, b, diagonal_of(p.prepared.mesh()));
   EXPECT_GE(c.iou, 0.995);
   EXPECT_LE(c.fraction_over, 0.005);
 }

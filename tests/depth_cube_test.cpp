@@ -288,7 +288,7 @@ TEST(DepthCubeRender, BunnyTwistMatchesReferenceAndGroundTruth) {
 
   context();
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   const size_t deformation_bytes = box.textures.deformation.grid.size() * 16;
   EXPECT_EQ(renderer.texture_bytes(), box.textures.depth_cube.texture_bytes() + deformation_bytes);
@@ -298,12 +298,12 @@ TEST(DepthCubeRender, BunnyTwistMatchesReferenceAndGroundTruth) {
 
   const double voxel = implicit_spacing(box.textures);
   auto F = [&](const Vec3& p) { return box.deformer->forward(p); };
-  const Mesh truth_mesh = ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.25 * voxel);
+  const Mesh truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * voxel);
   const Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   const ImageComparison vs_truth = compare_images(gl_image, truth, 0.01 * diagonal);
   const Image cpu =
-      reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
+      reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);
   const ImageComparison vs_cpu = compare_images(gl_image, cpu, 0.01 * diagonal);
   std::printf(
       "[figures] bunny twist, depth cube 128: GL vs ground truth: IoU %.4f, over 1%% of diag "
@@ -345,7 +345,7 @@ TEST_P(DepthCubeVariant, MatchesCpuReference) {
   const PreparedScene prepared = prepare_scene(scene, log);
   context();
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   const size_t per_texel = GetParam().texture_bits == 16 ? 2 : 4;
   EXPECT_GE(renderer.texture_bytes(),
@@ -353,9 +353,9 @@ TEST_P(DepthCubeVariant, MatchesCpuReference) {
   gl::FrameStats stats;
   const Image gl_image = renderer.render(*scene.camera, kSize, kSize, scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
-  const Image cpu = reference_render(prepared.mesh, prepared.textures(), *scene.camera, kSize,
+  const Image cpu = reference_render(prepared.mesh(), prepared.textures(), *scene.camera, kSize,
                                      kSize, scene.render);
-  const double diagonal = mesh_bounds(prepared.mesh).diagonal().norm();
+  const double diagonal = mesh_bounds(prepared.mesh()).diagonal().norm();
   const ImageComparison vs_cpu = compare_images(gl_image, cpu, 0.01 * diagonal);
   std::printf("[figures] %s, depth cube 96, %d-bit%s: GL vs CPU reference IoU %.4f, over %.2f%%\n",
               GetParam().scene.c_str(), GetParam().texture_bits,

@@ -38,7 +38,7 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
     for (float v : box.textures.alpha.grid.data) ASSERT_TRUE(std::isfinite(v));
   }
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   Image gl = renderer.render(*scene.camera, kSize, kSize, scene.render, &stats);
@@ -55,8 +55,8 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
   const BakedBox& box = prepared.boxes[0];
   if (!box.deformer->has_cut()) {
     auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
-    Mesh truth_mesh =
-        ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.5 * box.textures.sdf.grid.spacing);
+    Mesh truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F,
+                                        0.5 * box.textures.sdf.grid.spacing);
     Image truth = rasterize(truth_mesh, *scene.camera, kSize, kSize, scene.render);
     ImageComparison c = compare_images(gl, truth, 0.01 * mesh_bounds(truth_mesh).diagonal().norm());
     char buf[160];

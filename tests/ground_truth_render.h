@@ -59,13 +59,14 @@ inline GroundTruthRun render_against_ground_truth(const std::string& scene_file,
 
   osmesa_context();
   gl::Renderer renderer;
-  renderer.set_mesh(run.prepared.mesh);
+  renderer.set_mesh(run.prepared.mesh());
   renderer.set_boxes(run.prepared.textures());
   run.gl_image = renderer.render(run.camera, size, size, run.scene.render, &run.stats);
 
   const double quarter_voxel = 0.25 * box.textures.sdf.grid.spacing;
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
-  const Mesh truth_mesh = ground_truth_mesh(run.prepared.mesh, box.textures.box, F, quarter_voxel);
+  const Mesh truth_mesh =
+      ground_truth_mesh(run.prepared.mesh(), box.textures.box, F, quarter_voxel);
   run.truth_triangles = static_cast<size_t>(truth_mesh.F.rows());
   run.truth = rasterize(truth_mesh, run.camera, size, size, run.scene.render);
   run.diagonal = mesh_bounds(truth_mesh).diagonal().norm();

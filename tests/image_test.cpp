@@ -16,6 +16,7 @@
 #include <random>
 
 #include "base/error.h"
+#include "tests/temp_folder.h"
 
 namespace raywarp {
 namespace {
@@ -23,24 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-// A fresh, empty folder per test, removed afterwards.
-class ImageFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("raywarp_image_test_" + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::vector<std::string> listing() const {
-    std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename());
-    std::sort(names.begin(), names.end());
-    return names;
-  }
-  fs::path dir_;
-};
+class ImageFiles : public TempFolderTest {};
 
 // A 7 x 5 image with distinct bytes everywhere and depth covering every other pixel.
 Image pattern_image() {

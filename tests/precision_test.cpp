@@ -51,17 +51,17 @@ TEST_P(PrecisionTest, ErrorAgainstGroundTruth) {
   EXPECT_EQ(box.textures.half_precision, GetParam().bits == 16);
   const Camera& camera = *scene.camera;
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   Image gl = renderer.render(camera, kSize, kSize, scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   Mesh truth_mesh =
-      ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
+      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   Image cpu =
-      reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
+      reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_truth = compare_images(gl, truth, 0.01 * diagonal);
   ImageComparison vs_cpu = compare_images(gl, cpu, 0.01 * diagonal);

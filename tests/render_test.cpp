@@ -33,8 +33,8 @@ TEST_P(RenderTest, MatchesGroundTruthAndReference) {
   EXPECT_EQ(run.stats.nonfinite_pixels, 0);
   const ImageComparison& vs_truth = run.vs_truth;
 
-  Image cpu = reference_render(run.prepared.mesh, run.prepared.textures(), run.camera, kSize, kSize,
-                               run.scene.render);
+  Image cpu = reference_render(run.prepared.mesh(), run.prepared.textures(), run.camera, kSize,
+                               kSize, run.scene.render);
   ImageComparison vs_cpu = compare_images(run.gl_image, cpu, 0.01 * run.diagonal);
 
   const std::string& name = run.name;

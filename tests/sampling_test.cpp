@@ -35,17 +35,17 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
   const BakedBox& box = prepared.boxes[0];
   const Camera& camera = *scene.camera;
   gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh);
+  renderer.set_mesh(prepared.mesh());
   renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
   renderer.render(camera, kSize, kSize, scene.render, &stats);  // warm-up
   Image gl = renderer.render(camera, kSize, kSize, scene.render, &stats);
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   Image cpu =
-      reference_render(prepared.mesh, prepared.textures(), camera, kSize, kSize, scene.render);
+      reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   Mesh truth_mesh =
-      ground_truth_mesh(prepared.mesh, box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
+      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_cpu = compare_images(gl, cpu, 0.01 * diagonal);

@@ -218,13 +218,13 @@ int main(int argc, char** argv) {
         if (truth.width == 0) {  // the same for both: the mesh and the exact forward map
           auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
           const Mesh truth_mesh =
-              ground_truth_mesh(prepared.mesh, t.box, F, 0.25 * implicit_spacing(t));
+              ground_truth_mesh(prepared.mesh(), t.box, F, 0.25 * implicit_spacing(t));
           truth = rasterize(truth_mesh, c.camera, size, size, c.scene.render);
           diagonal = mesh_bounds(truth_mesh).diagonal().norm();
           if (!images.empty()) write_png(images + "/" + c.name + "_truth.png", truth);
         }
         gl::Renderer renderer;
-        renderer.set_mesh(prepared.mesh);
+        renderer.set_mesh(prepared.mesh());
         renderer.set_boxes(prepared.textures());
         const double ms = frame_median(renderer, c.camera, size, size, c.scene.render, frames);
         const Image image = renderer.render(c.camera, size, size, c.scene.render);
@@ -239,7 +239,7 @@ int main(int argc, char** argv) {
         Row r;
         r.scene = c.name;
         r.implicit = implicit;
-        r.triangles = prepared.stats.faces;
+        r.triangles = prepared.stats().faces;
         r.mib = (t.uses_depth_cube ? double(t.depth_cube.texture_bytes())
                                    : double(t.sdf.grid.size()) * 4.0) /
                 (1 << 20);
