@@ -125,7 +125,20 @@ Mesh load_mesh(const std::string& path) {
                 " meshes, " + std::to_string(merged.vertices.size()) +
                 " vertices); a mesh needs at least one triangle");
   }
-  return weld(merged);
+  Mesh mesh = weld(merged);
+  const MeshStats stats = mesh_stats(mesh);
+  if (stats.closed() && signed_volume(mesh) < 0.0) {
+    mesh.F.col(1).swap(mesh.F.col(2));
+    mesh.reoriented = true;
+  }
+  return mesh;
+}
+
+double signed_volume(const Mesh& mesh) {
+  double six_volume = 0.0;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    six_volume += mesh.vertex(f, 0).dot(mesh.vertex(f, 1).cross(mesh.vertex(f, 2)));
+  return six_volume / 6.0;
 }
 
 Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh) {
@@ -156,6 +169,7 @@ MeshStats mesh_stats(const Mesh& mesh) {
   stats.vertices = mesh.V.rows();
   stats.faces = mesh.F.rows();
   stats.bounds = mesh_bounds(mesh);
+  stats.reoriented = mesh.reoriented;
 
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     const Eigen::Vector3d a = mesh.vertex(f, 0), b = mesh.vertex(f, 1), c = mesh.vertex(f, 2);
@@ -180,6 +194,7 @@ std::string describe(const MeshStats& stats) {
   }
   if (stats.closed()) {
     s << ", closed";
+    if (stats.reoriented) s << " (its triangles faced inwards: turned outwards)";
   } else {
     s << ", open (" << stats.boundary_edges << " boundary edges, " << stats.nonmanifold_edges
       << " non-manifold)";

@@ -11,6 +11,8 @@ struct Mesh {
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> V;  // vertices, object units
   Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>
       F;  // triangles, counter-clockwise seen from outside
+  // load_mesh turned every triangle: the file's closed surface faced inwards (negative volume).
+  bool reoriented = false;
   Eigen::Vector3d vertex(int f, int c) const { return V.row(F(f, c)).transpose(); }
 };
 
@@ -20,18 +22,23 @@ struct MeshStats {
   long boundary_edges = 0;     // edges used by one triangle
   long nonmanifold_edges = 0;  // edges used by three or more triangles
   long degenerate_faces = 0;   // zero-area triangles
+  bool reoriented = false;     // Mesh::reoriented
   bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
 };
 
 // Loads OBJ, PLY, STL, OFF, glTF and whatever else assimp reads; all meshes of the file are
-// merged into one, identical vertices joined, polygons triangulated. Throws Error naming the file.
+// merged into one, identical vertices joined, polygons triangulated. A closed surface whose
+// triangles face inwards (an inside-out file: negative enclosed volume, so the winding number is
+// -1 inside) has every triangle turned, and says so in `reoriented`. Throws Error naming the file.
 Mesh load_mesh(const std::string& path);
 MeshStats mesh_stats(const Mesh& mesh);
 // Calls use(u, w, faces) once per distinct edge {u, w} (u < w) of non-collapsed triangle sides,
 // with the number of triangles using it: 1 is a boundary edge, 3 or more a non-manifold one.
 void for_each_edge_use(const Mesh& mesh, const std::function<void(int, int, int)>& use);
 Eigen::AlignedBox3d mesh_bounds(const Mesh& mesh);  // of the vertices
-std::string describe(const MeshStats& stats);       // one line for the terminal
+// The volume the triangles enclose, by the divergence theorem: > 0 when they face outwards.
+double signed_volume(const Mesh& mesh);
+std::string describe(const MeshStats& stats);  // one line for the terminal
 // Per-vertex normals, area-weighted face normals (unit; zero for isolated vertices).
 Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> vertex_normals(const Mesh& mesh);
 

@@ -119,6 +119,28 @@ TEST_F(MeshFiles, ObjCubeIsWeldedTriangulatedAndClosed) {
   expect_closed_cube(load_mesh(write("cube.obj", kCubeObj)));
 }
 
+// A closed surface written inside out (every face clockwise from outside) is turned outwards, and
+// says so; a correctly oriented one is left as it is.
+TEST_F(MeshFiles, InsideOutClosedMeshIsTurnedOutwards) {
+  std::string inside_out = kCubeObj;
+  for (const auto& [from, to] :
+       std::vector<std::pair<std::string, std::string>>{{"f 1 3 4 2", "f 2 4 3 1"},
+                                                        {"f 5 6 8 7", "f 7 8 6 5"},
+                                                        {"f 1 2 6 5", "f 5 6 2 1"},
+                                                        {"f 3 7 8 4", "f 4 8 7 3"},
+                                                        {"f 1 5 7 3", "f 3 7 5 1"},
+                                                        {"f 2 4 8 6", "f 6 8 4 2"}})
+    inside_out.replace(inside_out.find(from), from.size(), to);
+  const Mesh turned = load_mesh(write("inside_out.obj", inside_out));
+  EXPECT_TRUE(turned.reoriented);
+  EXPECT_NEAR(signed_volume(turned), 8.0, 1e-12);
+  EXPECT_NE(describe(mesh_stats(turned)).find("turned outwards"), std::string::npos);
+  const Mesh cube = load_mesh(write("cube.obj", kCubeObj));
+  EXPECT_FALSE(cube.reoriented);
+  EXPECT_NEAR(signed_volume(cube), 8.0, 1e-12);
+  EXPECT_EQ(describe(mesh_stats(cube)).find("turned"), std::string::npos);
+}
+
 TEST_F(MeshFiles, StlCubeIsWeldedAndClosed) {
   // 36 STL corners, each with its facet's normal: only positions say which are the same vertex.
   expect_closed_cube(load_mesh(write("cube.stl", cube_stl())));
