@@ -21,6 +21,16 @@ std::string show(const nlohmann::json& v);
 std::string child(const std::string& field, const std::string& key);
 std::string element(const std::string& field, size_t i);
 
+// How deeply arrays and objects may nest in a document raywarp reads (a scene needs 4 levels).
+constexpr size_t kMaxJsonDepth = 64;
+
+// Parses a JSON document without recursion, nesting at most kMaxJsonDepth levels. A syntax error
+// names `file`, the line and column, and the field being read; a number beyond double range names
+// its field ("boxes[0].deformer.angle_deg = 1e999: ..."). Throws Error.
+nlohmann::json parse_json(const std::string& text, const std::string& file);
+// parse_json of a file's contents; `what` names the kind of file in messages ("scene file").
+nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& what);
+
 // An interval of allowed numbers; infinite bounds mean "any finite number" on that side.
 struct Interval {
   double lo = -std::numeric_limits<double>::infinity();

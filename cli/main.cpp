@@ -321,7 +321,14 @@ int main(int argc, char** argv) {
   deformers_cmd->add_flag("--markdown", deformers_markdown,
                           "Print the table of docs/scene.md (Markdown) instead of text");
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version exit 0; a bad option or value is bad input: status 2, as for a bad
+    // scene field.
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
   try {
     if (*render) return run_render(ropt);
     if (*info) return run_info(info_path);

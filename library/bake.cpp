@@ -12,6 +12,7 @@
 #include "deformers/registry.h"
 #include "library/depth_cube.h"
 #include "library/implicit.h"
+#include "library/winding.h"
 
 namespace raywarp {
 
@@ -299,6 +300,40 @@ OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box) {
   return out;
 }
 
+namespace {
+
+// Akenine-Moeller's separating-axis test of a triangle (corners in the box's frame) against the
+// box [-h, h].
+bool triangle_meets_box(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                        const Eigen::Vector3d& c, const Eigen::Vector3d& h) {
+  auto separated = [&](const Eigen::Vector3d& axis) {
+    const double pa = axis.dot(a), pb = axis.dot(b), pc = axis.dot(c);
+    const double r = h.dot(axis.cwiseAbs());
+    return std::min({pa, pb, pc}) > r || std::max({pa, pb, pc}) < -r;
+  };
+  for (int k = 0; k < 3; ++k)
+    if (separated(Eigen::Vector3d::Unit(k))) return false;
+  const Eigen::Vector3d edges[3] = {b - a, c - b, a - c};
+  if (separated(edges[0].cross(edges[1]))) return false;
+  for (const Eigen::Vector3d& e : edges)
+    for (int k = 0; k < 3; ++k)
+      if (separated(Eigen::Vector3d::Unit(k).cross(e))) return false;
+  return true;
+}
+
+}  // namespace
+
+bool box_holds_mesh(const Mesh& mesh, const Box& box) {
+  std::vector<Eigen::Vector3d> local(static_cast<size_t>(mesh.V.rows()));
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    local[static_cast<size_t>(i)] = box.to_local(mesh.V.row(i).transpose());
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    if (triangle_meets_box(local[mesh.F(f, 0)], local[mesh.F(f, 1)], local[mesh.F(f, 2)],
+                           box.half_extents))
+      return true;
+  return WindingNumber(mesh).exact(box.centre) > 0.5;
+}
+
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
   static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   auto identity = deformer.identity_faces();
@@ -568,6 +603,12 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
                       fmt("%.2f", 100.0 * report.folds.folded_volume / report.folds.box_volume) +
                       " % of the box, where det J <= 0); raywarp renders the non-folded branch "
                       "there"});
+  if (!box_holds_mesh(mesh, spec.box))
+    report.warnings.push_back(
+        {"empty_box",
+         "the box holds no part of the mesh (no triangle meets it, and it is not "
+         "inside the mesh): it deforms nothing; check its centre and size against "
+         "the mesh's bounds"});
   for (const auto& face : torn_faces(mesh, spec.box, *out.deformer))
     report.warnings.push_back(
         {"torn_face", "the mesh crosses box face " + face +

@@ -64,7 +64,7 @@ struct StageReport {
 // message is one sentence with the figures.
 struct BakeWarning {
   std::string code;  // deformer_note | inverse_residual | texture_coarse | folds | torn_face |
-                     // open_mesh | max_steps_short | cache_store
+                     // open_mesh | max_steps_short | cache_store | empty_box
   std::string message;
 };
 
@@ -186,6 +186,10 @@ struct OpenEdges {
   bool any() const { return boundary + nonmanifold > 0; }
 };
 OpenEdges open_edges_in_box(const Mesh& mesh, const Box& box);
+// Whether any part of the mesh is in the box: a triangle meets it (separating-axis test), or the
+// box lies inside the mesh (winding number at its centre > 0.5). A box that holds nothing
+// deforms nothing.
+bool box_holds_mesh(const Mesh& mesh, const Box& box);
 // Faces of the box, as "-x", "+y", ..., that the mesh crosses where F is not the identity.
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer);
 

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/error.h"
+#include "base/json_reader.h"
 
 namespace raywarp {
 
@@ -162,15 +163,7 @@ Camera camera_from_json(const nlohmann::json& j, const std::string& where) {
 }
 
 Camera load_camera(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path + ": cannot open the camera file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(path + ": not valid JSON: " + e.what());
-  }
-  return camera_from_json(j, path + ": camera");
+  return camera_from_json(read_json_file(path, "camera file"), path + ": camera");
 }
 
 nlohmann::json camera_to_json(const Camera& c) {

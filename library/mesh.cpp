@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <assimp/Importer.hpp>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "library/mesh_file.h"
 
 namespace raywarp {
 namespace {
@@ -39,37 +41,130 @@ struct MergedMesh {
   std::vector<std::array<int, 3>> faces;
 };
 
-void merge_node(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent,
-                const std::string& path, MergedMesh& out) {
-  const aiMatrix4x4 transform = parent * node.mTransformation;
-  // A mirroring transform turns counter-clockwise triangles clockwise: swap two corners back.
-  const bool mirrored = transform.Determinant() < 0;
-  for (unsigned m = 0; m < node.mNumMeshes; ++m) {
-    const aiMesh& mesh = *scene.mMeshes[node.mMeshes[m]];
-    const int base = static_cast<int>(out.vertices.size());
-    for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
-      const aiVector3D p = transform * mesh.mVertices[v];
-      out.vertices.push_back({double(p.x), double(p.y), double(p.z)});
-    }
-    for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
-      const aiFace& face = mesh.mFaces[f];
-      if (face.mNumIndices != 3) continue;  // points and lines have no surface
-      std::array<int, 3> t;
-      for (int c = 0; c < 3; ++c) {
-        if (face.mIndices[c] >= mesh.mNumVertices) {
-          throw Error(path + ": cannot read mesh: mesh " + std::to_string(node.mMeshes[m]) +
-                      " face " + std::to_string(f) + " uses vertex " +
-                      std::to_string(face.mIndices[c]) + ", allowed [0, " +
-                      std::to_string(mesh.mNumVertices) + ")");
-        }
-        t[c] = base + static_cast<int>(face.mIndices[c]);
-      }
-      if (mirrored) std::swap(t[1], t[2]);
-      out.faces.push_back(t);
-    }
+// Triangles of one polygon (corners as indices into `vertices`), counter-clockwise as the polygon
+// runs: a triangle as it is, a quad split along the diagonal that keeps both halves facing the
+// polygon's normal (so a concave quad stays inside its outline), a larger polygon by ear
+// clipping in the plane of its Newell normal; past kMaxEarClipCorners, or where clipping finds
+// no ear (a self-intersecting outline), a fan. assimp's own triangulation is not used: it
+// asserts (and aborts) on PLY faces of one or two corners mixed with polygons.
+constexpr size_t kMaxEarClipCorners = 256;
+
+void triangulate(const std::vector<Vertex>& vertices, const std::vector<int>& polygon,
+                 std::vector<std::array<int, 3>>& out) {
+  const size_t n = polygon.size();
+  if (n < 3) return;  // points and lines have no surface
+  if (n == 3) {
+    out.push_back({polygon[0], polygon[1], polygon[2]});
+    return;
   }
-  for (unsigned c = 0; c < node.mNumChildren; ++c) {
-    merge_node(scene, *node.mChildren[c], transform, path, out);
+  auto at = [&](size_t i) {
+    const Vertex& v = vertices[static_cast<size_t>(polygon[i])];
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  };
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // Newell's method
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = at(i), q = at((i + 1) % n);
+    normal += Eigen::Vector3d((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()),
+                              (p.x() - q.x()) * (p.y() + q.y()));
+  }
+  auto fan = [&](const std::vector<size_t>& corners) {
+    for (size_t i = 1; i + 1 < corners.size(); ++i)
+      out.push_back({polygon[corners[0]], polygon[corners[i]], polygon[corners[i + 1]]});
+  };
+  std::vector<size_t> corners(n);
+  for (size_t i = 0; i < n; ++i) corners[i] = i;
+  if (n == 4) {
+    auto facing = [&](size_t a, size_t b, size_t c) {
+      return (at(b) - at(a)).cross(at(c) - at(a)).dot(normal) > 0;
+    };
+    if (facing(0, 1, 2) && facing(0, 2, 3))
+      fan({0, 1, 2, 3});
+    else
+      fan({1, 2, 3, 0});
+    return;
+  }
+  if (n > kMaxEarClipCorners || !(normal.norm() > 0)) {
+    fan(corners);
+    return;
+  }
+  // Project onto the plane across the normal's largest component, counter-clockwise.
+  int drop = 0;
+  normal.cwiseAbs().maxCoeff(&drop);
+  const int u = (drop + 1) % 3, w = (drop + 2) % 3;
+  const double sign = normal[drop] > 0 ? 1.0 : -1.0;
+  std::vector<Eigen::Vector2d> flat(n);
+  for (size_t i = 0; i < n; ++i) flat[i] = Eigen::Vector2d(at(i)[u], sign * at(i)[w]);
+  auto cross = [&](size_t a, size_t b, size_t c) {
+    const Eigen::Vector2d e = flat[b] - flat[a], f = flat[c] - flat[a];
+    return e.x() * f.y() - e.y() * f.x();
+  };
+  while (corners.size() > 3) {
+    bool clipped = false;
+    for (size_t k = 0; k < corners.size() && !clipped; ++k) {
+      const size_t a = corners[(k + corners.size() - 1) % corners.size()], b = corners[k],
+                   c = corners[(k + 1) % corners.size()];
+      if (cross(a, b, c) <= 0) continue;  // reflex or flat corner
+      bool empty = true;
+      for (size_t m : corners) {
+        if (m == a || m == b || m == c) continue;
+        if (cross(a, b, m) >= 0 && cross(b, c, m) >= 0 && cross(c, a, m) >= 0) {
+          empty = false;
+          break;
+        }
+      }
+      if (!empty) continue;
+      out.push_back({polygon[a], polygon[b], polygon[c]});
+      corners.erase(corners.begin() + static_cast<std::ptrdiff_t>(k));
+      clipped = true;
+    }
+    if (!clipped) break;
+  }
+  fan(corners);
+}
+
+// Every mesh the node tree instantiates, merged, vertices in the scene's root frame. The tree is
+// walked with an explicit stack: no file's nesting depth reaches the C++ stack.
+void merge_nodes(const aiScene& scene, const std::string& path, MergedMesh& out) {
+  std::vector<std::pair<const aiNode*, aiMatrix4x4>> todo = {{scene.mRootNode, aiMatrix4x4()}};
+  std::vector<int> polygon;
+  while (!todo.empty()) {
+    const auto [node_ptr, parent] = todo.back();
+    todo.pop_back();
+    const aiNode& node = *node_ptr;
+    const aiMatrix4x4 transform = parent * node.mTransformation;
+    // A mirroring transform turns counter-clockwise polygons clockwise: reverse them back.
+    const bool mirrored = transform.Determinant() < 0;
+    for (unsigned m = 0; m < node.mNumMeshes; ++m) {
+      const aiMesh& mesh = *scene.mMeshes[node.mMeshes[m]];
+      const int base = static_cast<int>(out.vertices.size());
+      for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
+        const aiVector3D p = transform * mesh.mVertices[v];
+        for (int a = 0; a < 3; ++a)
+          if (!std::isfinite(p[a]))
+            throw Error(path + ": cannot read mesh: mesh " + std::to_string(node.mMeshes[m]) +
+                        " vertex " + std::to_string(v) + " has " + char('x' + a) + " = " +
+                        std::to_string(p[a]) + " (after the file's node transforms): " +
+                        "coordinates must be finite numbers within float range");
+        out.vertices.push_back({double(p.x), double(p.y), double(p.z)});
+      }
+      for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
+        const aiFace& face = mesh.mFaces[f];
+        polygon.clear();
+        for (unsigned c = 0; c < face.mNumIndices; ++c) {
+          if (face.mIndices[c] >= mesh.mNumVertices) {
+            throw Error(path + ": cannot read mesh: mesh " + std::to_string(node.mMeshes[m]) +
+                        " face " + std::to_string(f) + " uses vertex " +
+                        std::to_string(face.mIndices[c]) + ", allowed [0, " +
+                        std::to_string(mesh.mNumVertices) + ")");
+          }
+          polygon.push_back(base + static_cast<int>(face.mIndices[c]));
+        }
+        if (mirrored) std::reverse(polygon.begin(), polygon.end());
+        triangulate(out.vertices, polygon, out.faces);
+      }
+    }
+    for (unsigned c = 0; c < node.mNumChildren; ++c)
+      todo.emplace_back(node.mChildren[c], transform);
   }
 }
 
@@ -108,18 +203,30 @@ std::string format_point(const Eigen::Vector3d& p) {
 }  // namespace
 
 Mesh load_mesh(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) {
-    throw Error(path + ": cannot read mesh: no such file");
-  }
+  const MeshFileBytes file = read_mesh_file(path);
+  const bool compressed = path.size() > 3 && path.compare(path.size() - 3, 3, ".xz") == 0;
+  // A file of a checked format (or a compressed one) is parsed from the bytes just checked; other
+  // formats may name files beside them (glTF buffers, OBJ materials), so assimp opens them.
+  if (mesh_format_is_checked(file.format) || compressed)
+    return load_mesh_bytes(file.bytes, file.format, path);
+  return load_mesh_bytes("", file.format, path);
+}
+
+Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path) {
+  check_mesh_bytes(bytes, format, path);
   Assimp::Importer importer;
-  // No normals are generated: vertex_normals() computes them where needed.
-  const aiScene* scene =
-      importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices);
+  // ValidateDataStructure refuses faces with indices out of range. No other post-processing
+  // step runs: polygons are triangulated by triangulate(), identical vertices joined by weld(),
+  // and normals computed by vertex_normals() where needed.
+  const unsigned flags = aiProcess_ValidateDataStructure;
+  const aiScene* scene = bytes.empty() ? importer.ReadFile(path, flags)
+                                       : importer.ReadFileFromMemory(bytes.data(), bytes.size(),
+                                                                     flags, format.c_str());
   if (scene == nullptr || scene->mRootNode == nullptr) {
     throw Error(path + ": cannot read mesh: " + importer.GetErrorString());
   }
   MergedMesh merged;
-  merge_node(*scene, *scene->mRootNode, aiMatrix4x4(), path, merged);
+  merge_nodes(*scene, path, merged);
   if (merged.faces.empty()) {
     throw Error(path + ": cannot read mesh: no triangles (" + std::to_string(scene->mNumMeshes) +
                 " meshes, " + std::to_string(merged.vertices.size()) +
@@ -127,6 +234,11 @@ Mesh load_mesh(const std::string& path) {
   }
   Mesh mesh = weld(merged);
   const MeshStats stats = mesh_stats(mesh);
+  if (stats.degenerate_faces == stats.faces) {
+    throw Error(path + ": cannot read mesh: all " + std::to_string(stats.faces) +
+                " triangles are degenerate (zero area); a mesh needs at least one triangle with "
+                "an area");
+  }
   if (stats.closed() && signed_volume(mesh) < 0.0) {
     mesh.F.col(1).swap(mesh.F.col(2));
     mesh.reoriented = true;

@@ -31,6 +31,10 @@ struct MeshStats {
 // triangles face inwards (an inside-out file: negative enclosed volume, so the winding number is
 // -1 inside) has every triangle turned, and says so in `reoriented`. Throws Error naming the file.
 Mesh load_mesh(const std::string& path);
+// load_mesh of a file already in memory: `bytes` in `format` (a lower-case extension such as
+// "ply"), checked by check_mesh_bytes (library/mesh_file.h) before assimp parses them; `path`
+// names it in messages. Empty `bytes` make assimp open `path` itself.
+Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path);
 MeshStats mesh_stats(const Mesh& mesh);
 // Calls use(u, w, faces) once per distinct edge {u, w} (u < w) of non-collapsed triangle sides,
 // with the number of triangles using it: 1 is a boundary edge, 3 or more a non-manifold one.

@@ -406,19 +406,7 @@ RenderSettings read_render(const JsonReader& r, const json& j) {
   return s;
 }
 
-json parse_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw Error(path.string() + ": cannot open the scene file (no such file)");
-  std::ifstream in(path);
-  if (!in) throw Error(path.string() + ": cannot open the scene file");
-  try {
-    return json::parse(in);
-  } catch (const json::exception& e) {
-    // parse_error (with line and column), and out_of_range for numbers beyond double.
-    throw Error(path.string() + ": not valid JSON: " + e.what());
-  }
-}
+json parse_file(const std::filesystem::path& path) { return read_json_file(path, "scene file"); }
 
 }  // namespace
 

@@ -11,7 +11,7 @@ shift || true
 packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboost-iostreams-dev
           libtbb-dev libassimp-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0
           nlohmann-json3-dev libcli11-dev
-          libstb-dev libgif-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev)
+          libstb-dev libgif-dev liblzma-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

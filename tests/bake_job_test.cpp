@@ -11,6 +11,7 @@
 
 #include "library/bake.h"
 #include "library/scene.h"
+#include "library/winding.h"
 
 namespace raywarp {
 namespace {
@@ -255,6 +256,39 @@ TEST(BakeJob, CutReportsItsAlphaStageAndWarningsAreCoded) {
     EXPECT_FALSE(w.code.empty());
     EXPECT_FALSE(w.message.empty());
   }
+}
+
+bool has_warning(const BakeReport& r, const std::string& code) {
+  for (const BakeWarning& w : r.warnings)
+    if (w.code == code) return true;
+  return false;
+}
+
+// A box beside the mesh deforms nothing and says so; one inside the mesh (no triangle in it)
+// holds the mesh's inside, and one the surface crosses holds the surface.
+TEST(BakeJob, ABoxThatHoldsNoPartOfTheMeshWarns) {
+  Scene scene = example("bunny_cut_solid.json");
+  BakeSession session;
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  const Eigen::AlignedBox3d bounds = mesh->stats.bounds;
+  Box beside;
+  beside.half_extents = 0.1 * bounds.sizes();
+  beside.centre = bounds.max() + 0.5 * bounds.sizes();
+  EXPECT_FALSE(box_holds_mesh(mesh->mesh, beside));
+  scene.boxes[0].box = beside;
+  scene.boxes[0].implicit.resolution = 16;
+  EXPECT_TRUE(has_warning(session.bake(make_job(scene, 0, mesh)).report, "empty_box"));
+
+  Box crossing = beside;
+  crossing.centre = bounds.center();
+  crossing.half_extents = 0.6 * bounds.sizes();
+  EXPECT_TRUE(box_holds_mesh(mesh->mesh, crossing));
+  // A small box around a point well inside the bunny's body (winding number 1 there).
+  Box inside;
+  inside.centre = mesh->mesh.V.colwise().mean().transpose();
+  inside.half_extents = Eigen::Vector3d::Constant(1e-4 * bounds.diagonal().norm());
+  ASSERT_GT(WindingNumber(mesh->mesh).exact(inside.centre), 0.5);
+  EXPECT_TRUE(box_holds_mesh(mesh->mesh, inside));
 }
 
 TEST(BakeJob, ErrorsNameTheBox) {

@@ -51,7 +51,7 @@ class CliTest : public ::testing::Test {
     std::ofstream(dir / "s.json") << scene_text;
     fs::path out = dir / "out.png";
     Result r = run((dir / "s.json").string() + " -o " + out.string() + " " + extra_args);
-    EXPECT_NE(r.code, 0) << r.output;
+    EXPECT_EQ(r.code, 2) << r.output;
     for (const auto& n : needles)
       EXPECT_NE(r.output.find(n), std::string::npos) << "missing '" << n << "' in: " << r.output;
     EXPECT_FALSE(fs::exists(out)) << "an output file was left behind";
@@ -122,6 +122,41 @@ TEST_F(CliTest, ValidSceneRendersAllOutputs) {
 TEST_F(CliTest, MissingSceneFile) {
   expect_failure("", "--camera /nonexistent/none.json", {"s.json"});
 }
+// Mesh files that lie about their contents, in a scene and for `raywarp info`: exit status 2, the
+// file and the element named, nothing written.
+TEST_F(CliTest, BrokenMeshFiles) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"short.ply", header + "0 0 0\n1 0 0\n"},
+      {"index.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"},
+      {"overflow.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n"},
+      {"nan.obj", "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n"},
+      {"flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"}};
+  const std::vector<std::string> needles = {"PLY vertex 2 of", "uses vertex 7",
+                                            "OBJ vertex 2 (line 2) has x = 1e+39",
+                                            "OBJ vertex 3 (line 3) has y = nan", "degenerate"};
+  for (size_t i = 0; i < files.size(); ++i) {
+    std::ofstream(dir / files[i].first) << files[i].second;
+    const std::string needle = i == 0 ? "cut short" : needles[i];
+    expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                         R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+                         R"("camera": "cam.json")", files[i].first),
+                   "", {files[i].first + ": cannot read mesh: ", needle});
+    const Result info = ::run("info " + (dir / files[i].first).string());
+    EXPECT_EQ(info.code, 2) << info.output;
+    EXPECT_NE(info.output.find(needle), std::string::npos) << info.output;
+  }
+}
+
+TEST_F(CliTest, ABoxBesideTheMeshWarns) {
+  std::ofstream(dir / "s.json") << scene(R"("min": [5, 5, 5], "max": [6, 6, 6])");
+  const Result r = run((dir / "s.json").string() + " -o " + (dir / "out.png").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("holds no part of the mesh"), std::string::npos) << r.output;
+}
+
 TEST_F(CliTest, InvalidJson) { expect_failure("{\"mesh\": ", "", {"s.json", "JSON"}); }
 TEST_F(CliTest, MeshFileMissing) {
   expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",

@@ -686,10 +686,22 @@ std::vector<BadCase> bad_cases() {
        {": boxes[0].implicit.band_voxels = 0.5: must be a number in [1, 32]"}},
       {"InvalidJson",
        [] { return std::string("{\"mesh\": \"meshes/tet.obj\",\n \"boxes\": }"); },
-       {": not valid JSON: ", "line 2, column"}},
+       {": not valid JSON at line 2, column 12 in boxes: "}},
       {"NumberBeyondDouble",
        [] { return std::string("{\"mesh\": 1e400}"); },
-       {": not valid JSON: ", "1e400"}},
+       {": mesh = 1e400: must be a finite number"}},
+      {"NumberBeyondDoubleDeep",
+       [] {
+         return std::string(
+             "{\"mesh\": \"meshes/tet.obj\", \"boxes\": [{\"deformer\": {\"angle_deg\": 2e999}}]}");
+       },
+       {": boxes[0].deformer.angle_deg = 2e999: must be a finite number"}},
+      {"NestedTooDeep",
+       [] { return std::string(100000, '[') + std::string(100000, ']'); },
+       {": [0][0][0]", "deeper than 64 levels"}},
+      {"NestedTooDeepInAField",
+       [] { return "{\"render\": " + std::string(70, '[') + std::string(70, ']') + "}"; },
+       {": render[0][0]", "deeper than 64 levels"}},
       {"NotAnObject",
        [] { return std::string("[1, 2]"); },
        {": the scene = [1,2]: must be a JSON object"}},
@@ -721,7 +733,8 @@ std::vector<BadCase> bad_cases() {
        {": camera = \"cameras/degenerate.json\": ", "target: equals eye [1,2,3]"}},
       {"CameraFileNumberBeyondDouble",
        [] { return edit([](json& j) { j["camera"] = "cameras/overflow.json"; }); },
-       {": camera = \"cameras/overflow.json\": {dir}/cameras/overflow.json: not valid JSON: "}},
+       {": camera = \"cameras/overflow.json\": {dir}/cameras/overflow.json: ",
+        "= 1e400: must be a finite number"}},
       {"RenderWidth0",
        [] { return edit([](json& j) {
               j["render"] = {{"width", 0}};
