@@ -1,0 +1,131 @@
+// Image tests on meshes nobody tuned for (examples/zoo, written by scripts/make_zoo.py): a twist,
+// a bend, a box cut and an incision on each of seven public meshes (closed and open, thin legs,
+// fingers, ears, horns, a range scan of 222K triangles), at raywarp's default settings, each
+// against its exact ground truth:
+//  - twist and bend: the mesh subdivided to a quarter voxel, split at the box faces, the inside
+//    part mapped by the exact forward map, rasterised (verify/reference.h);
+//  - box cut: exact_cut_render (every triangle along each ray, the region removed analytically);
+//  - incision (hollow): as the twist, also split at the cut plane.
+// The figures, with the frame times of bench/, are in docs/meshes.md. A case whose figures miss
+// the marks (IoU >= 0.99, <= 1 % of the pixels off by more than 1 % of the diagonal) names the
+// reason and the setting that fixes it in kKnownShort below, and is held to what it reaches.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+#include "cli/pipeline.h"
+#include "deformers/box_cut.h"
+#include "gl/context.h"
+#include "gl/renderer.h"
+#include "library/image.h"
+#include "library/scene.h"
+#include "verify/reference.h"
+
+namespace raywarp {
+namespace {
+
+constexpr int kSize = 192;
+
+struct Known {
+  const char* scene;
+  double iou, over;  // what the case reaches at defaults
+  const char* why;
+};
+// Cases below the marks at the defaults, with the reason.
+const Known kKnownShort[] = {
+    {"devil_cut", 0.998, 0.02,
+     "the default sampler (threshold) steps through the thin nose of the hollow shell and shows "
+     "its inside; render.sampling linear reaches 0.15 % over"},
+    {"devil_incision", 0.996, 0.022,
+     "the default sampler steps through the thin nose of the hollow shell; render.sampling "
+     "linear reaches 0.39 % over"},
+    {"horse_legs_twist", 0.985, 0.01,
+     "the thin legs lose detail at the default 128 distance grid (voxel 1.2e-3 units); "
+     "implicit.resolution 256 "
+     "reaches IoU 0.9954"},
+    {"horse_legs_bend", 0.980, 0.01,
+     "the bend folds 17 % of the box (det J <= 0; raywarp warns and renders one branch, the "
+     "ground truth shows both); a smaller angle_deg or a longer box does not fold"},
+    {"scan_trex_incision", 0.987, 0.01,
+     "the range scan's teeth and claws are thin open sheets at the default 128 distance "
+     "grid; implicit.resolution 256 reaches IoU 0.9912"},
+};
+
+gl::Context& context() {
+  static auto ctx = gl::create_osmesa_context();
+  return *ctx;
+}
+
+class ZooTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
+  const std::string name = GetParam();
+  const Scene scene =
+      load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/zoo/" + name + ".json");
+  std::ostringstream log;
+  const PreparedScene prepared = prepare_scene(scene, log);
+  ASSERT_EQ(prepared.boxes.size(), 1u);
+  const BakedBox& box = prepared.boxes[0];
+  ASSERT_TRUE(scene.camera.has_value());
+  const Camera& camera = *scene.camera;
+
+  context();
+  gl::Renderer renderer;
+  renderer.set_mesh(prepared.mesh());
+  renderer.set_boxes(prepared.textures());
+  gl::FrameStats stats;
+  const Image image = renderer.render(camera, kSize, kSize, scene.render, &stats);
+  EXPECT_EQ(stats.nonfinite_pixels, 0);
+
+  const BoxSpec& spec = scene.boxes[0];
+  Image truth;
+  double diagonal = 0;
+  if (spec.deformer.type == "box_cut") {
+    const auto* cut = dynamic_cast<const BoxCut*>(box.deformer.get());
+    ASSERT_NE(cut, nullptr);
+    truth = exact_cut_render(prepared.mesh(), box.textures.box, cut->region(), spec.cut_mode,
+                             camera, kSize, kSize, scene.render);
+    diagonal = mesh_bounds(prepared.mesh()).diagonal().norm();
+  } else {
+    auto F = [&](const Eigen::Vector3d& q) { return box.deformer->forward(q); };
+    const int split = spec.deformer.type == "incision" ? spec.deformer.axis : -1;
+    const Mesh truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F,
+                                              0.25 * box.textures.sdf.grid.spacing, split);
+    truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
+    diagonal = mesh_bounds(truth_mesh).diagonal().norm();
+  }
+  const ImageComparison c = compare_images(image, truth, 0.01 * diagonal);
+  std::filesystem::create_directories("zoo_test_images");
+  write_png("zoo_test_images/" + name + "_gl.png", image);
+  write_png("zoo_test_images/" + name + "_truth.png", truth);
+  std::printf("[figures] zoo %s: IoU %.4f, over 1%% of diag %.2f%%, %.1f MiB of textures\n",
+              name.c_str(), c.iou, 100 * c.fraction_over, renderer.texture_bytes() / 1048576.0);
+  double iou = 0.99, over = 0.01;
+  for (const Known& k : kKnownShort)
+    if (name == k.scene) {
+      iou = k.iou;
+      over = k.over;
+      std::printf("[figures] zoo %s is below the marks at defaults: %s\n", name.c_str(), k.why);
+    }
+  EXPECT_GE(c.iou, iou);
+  EXPECT_LE(c.fraction_over, over);
+}
+
+std::vector<std::string> zoo_scenes() {
+  std::vector<std::string> names;
+  for (const auto& e :
+       std::filesystem::directory_iterator(std::string(RAYWARP_SOURCE_DIR) + "/examples/zoo"))
+    if (e.path().extension() == ".json") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+INSTANTIATE_TEST_SUITE_P(Zoo, ZooTest, ::testing::ValuesIn(zoo_scenes()),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
+}  // namespace raywarp
