@@ -213,23 +213,38 @@ Mesh load_mesh(const std::string& path) {
 }
 
 Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path) {
-  check_mesh_bytes(bytes, format, path);
-  Assimp::Importer importer;
-  // ValidateDataStructure refuses faces with indices out of range. No other post-processing
-  // step runs: polygons are triangulated by triangulate(), identical vertices joined by weld(),
-  // and normals computed by vertex_normals() where needed.
-  const unsigned flags = aiProcess_ValidateDataStructure;
-  const aiScene* scene = bytes.empty() ? importer.ReadFile(path, flags)
-                                       : importer.ReadFileFromMemory(bytes.data(), bytes.size(),
-                                                                     flags, format.c_str());
-  if (scene == nullptr || scene->mRootNode == nullptr) {
-    throw Error(path + ": cannot read mesh: " + importer.GetErrorString());
-  }
   MergedMesh merged;
-  merge_nodes(*scene, path, merged);
+  size_t meshes = 1;
+  if (format == "ply") {
+    PolygonSoup soup = read_ply(bytes, path);
+    merged.vertices = std::move(soup.vertices);
+    std::vector<int> polygon;
+    size_t next = 0;
+    for (int size : soup.sizes) {
+      polygon.assign(soup.corners.begin() + static_cast<std::ptrdiff_t>(next),
+                     soup.corners.begin() + static_cast<std::ptrdiff_t>(next + size_t(size)));
+      next += size_t(size);
+      triangulate(merged.vertices, polygon, merged.faces);
+    }
+  } else {
+    check_mesh_bytes(bytes, format, path);
+    Assimp::Importer importer;
+    // ValidateDataStructure refuses faces with indices out of range. No other post-processing
+    // step runs: polygons are triangulated by triangulate(), identical vertices joined by
+    // weld(), and normals computed by vertex_normals() where needed.
+    const unsigned flags = aiProcess_ValidateDataStructure;
+    const aiScene* scene = bytes.empty() ? importer.ReadFile(path, flags)
+                                         : importer.ReadFileFromMemory(bytes.data(), bytes.size(),
+                                                                       flags, format.c_str());
+    if (scene == nullptr || scene->mRootNode == nullptr) {
+      throw Error(path + ": cannot read mesh: " + importer.GetErrorString());
+    }
+    merge_nodes(*scene, path, merged);
+    meshes = scene->mNumMeshes;
+  }
   if (merged.faces.empty()) {
-    throw Error(path + ": cannot read mesh: no triangles (" + std::to_string(scene->mNumMeshes) +
-                " meshes, " + std::to_string(merged.vertices.size()) +
+    throw Error(path + ": cannot read mesh: no triangles (" + std::to_string(meshes) + " meshes, " +
+                std::to_string(merged.vertices.size()) +
                 " vertices); a mesh needs at least one triangle");
   }
   Mesh mesh = weld(merged);

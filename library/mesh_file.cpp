@@ -4,6 +4,7 @@
 #include <lzma.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <cfloat>
@@ -174,7 +175,7 @@ double read_binary(const std::string& bytes, size_t at, const PlyType& t, bool l
   }
 }
 
-void check_ply(const std::string& bytes, const std::string& path) {
+void walk_ply(const std::string& bytes, const std::string& path, PolygonSoup* soup) {
   // Header: lines up to end_header.
   size_t pos = 0, line_no = 0;
   auto next_line = [&](std::string& line) {
@@ -193,12 +194,21 @@ void check_ply(const std::string& bytes, const std::string& path) {
   bool have_format = false, ended = false;
   std::vector<PlyElement> elements;
   while (next_line(line)) {
+    for (char ch : line)
+      if (static_cast<unsigned char>(ch) < 32 && ch != '\t')
+        fail(path, "PLY header line " + std::to_string(line_no + 0) +
+                       " holds a control character (" + std::to_string(int(ch)) +
+                       "): a header is lines of text");
     std::istringstream words(line);
     std::string word;
     words >> word;
     const std::string where = "PLY header line " + std::to_string(line_no);
     if (word.empty() || word == "comment" || word == "obj_info") continue;
     if (word == "end_header") {
+      if (line.find_last_not_of(" \t") + 1 != std::string("end_header").size() ||
+          line.rfind("end_header", 0) != 0)
+        fail(path, "PLY header line " + std::to_string(line_no) + ": \"" + line.substr(0, 40) +
+                       "\": the header must end with a line end_header");
       ended = true;
       break;
     }
@@ -284,7 +294,9 @@ void check_ply(const std::string& bytes, const std::string& path) {
                      "its header is wrong");
     }
     const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
+    if (soup && is_vertex) soup->vertices.reserve(static_cast<size_t>(e.count));
     for (uint64_t row = 0; row < e.count; ++row) {
+      std::array<double, 3> xyz = {0, 0, 0};
       auto where = [&] {
         return std::string("PLY ") + e.name + " " + std::to_string(row) +
                (binary ? "" : " (line " + std::to_string(tokens.line()) + ")");
@@ -313,8 +325,10 @@ void check_ply(const std::string& bytes, const std::string& path) {
       for (const PlyProperty& p : e.properties) {
         if (!p.list) {
           const double v = value(p.value, "property " + p.name);
-          if (is_vertex && p.name.size() == 1 && (p.name[0] >= 'x' && p.name[0] <= 'z'))
+          if (is_vertex && p.name.size() == 1 && (p.name[0] >= 'x' && p.name[0] <= 'z')) {
             check_coordinate(v, path, "PLY vertex " + std::to_string(row), p.name[0]);
+            xyz[static_cast<size_t>(p.name[0] - 'x')] = v;
+          }
           continue;
         }
         const double n = value(p.count, "list " + p.name + "'s count");
@@ -325,8 +339,11 @@ void check_ply(const std::string& bytes, const std::string& path) {
           if (indices && !(v >= 0 && v < static_cast<double>(vertex_count) && v == std::floor(v)))
             fail(path, where() + " uses vertex " + number_text(v) + ", allowed [0, " +
                            std::to_string(vertex_count) + ")");
+          if (indices && soup) soup->corners.push_back(static_cast<int>(v));
         }
+        if (indices && soup) soup->sizes.push_back(static_cast<int>(n));
       }
+      if (soup && is_vertex) soup->vertices.push_back(xyz);
     }
   }
 }
@@ -556,6 +573,12 @@ MeshFileBytes read_mesh_file(const std::string& path) {
   return file;
 }
 
+PolygonSoup read_ply(const std::string& bytes, const std::string& path) {
+  PolygonSoup soup;
+  walk_ply(bytes, path, &soup);
+  return soup;
+}
+
 bool mesh_format_is_checked(const std::string& format) {
   return format == "ply" || format == "obj" || format == "stl" || format == "off";
 }
@@ -563,7 +586,7 @@ bool mesh_format_is_checked(const std::string& format) {
 void check_mesh_bytes(const std::string& bytes, const std::string& format,
                       const std::string& path) {
   if (format == "ply")
-    check_ply(bytes, path);
+    walk_ply(bytes, path, nullptr);
   else if (format == "obj")
     check_obj(bytes, path);
   else if (format == "stl")

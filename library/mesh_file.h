@@ -5,8 +5,10 @@
 // bytes there are, face indices against the vertex count, coordinates finite and within float
 // range. Every error names the file and the element, row or vertex.
 #pragma once
+#include <array>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace raywarp {
 
@@ -30,5 +32,19 @@ bool mesh_format_is_checked(const std::string& format);
 // inconsistency; other formats pass unchecked. Allocates nothing in proportion to the counts a
 // header declares.
 void check_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path);
+
+// Vertices and polygons as a file lists them: polygon i has sizes[i] corners, the next ones of
+// `corners` (indices into `vertices`).
+struct PolygonSoup {
+  std::vector<std::array<double, 3>> vertices;
+  std::vector<int> corners;
+  std::vector<int> sizes;
+};
+
+// Reads a PLY file (ASCII or binary, either byte order) with the walk of check_mesh_bytes: x, y, z
+// of element vertex, and the vertex_indices (or vertex_index) lists of element face; every other
+// element and property is read past. raywarp reads PLY itself: assimp's PLY reader reads past
+// its buffer on some malformed binary files. Throws Error naming the file and the element.
+PolygonSoup read_ply(const std::string& bytes, const std::string& path);
 
 }  // namespace raywarp
