@@ -184,20 +184,15 @@ TEST(BakeJob, EveryStageCancelsPromptly) {
       {"bunny_twist.json", "sign", [](Scene&) {}},
       {"bunny_twist.json", "deformation texture",
        [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
-      {"bunny_twist.json", "deformation texture: error",
-       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
-      {"bunny_twist.json", "deformation texture: inverse residual",
-       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
+      // A stage is cancelled at its first poll, so the stages before it run at the defaults
+      // (a 256 texture there only lengthened the run, most under the sanitizers).
+      {"bunny_twist.json", "deformation texture: error", [](Scene&) {}, 1},
+      {"bunny_twist.json", "deformation texture: inverse residual", [](Scene&) {}, 1},
       {"bunny_twist.json", "folds", [](Scene&) {}, 1},
       {"bunny_control_points.json", "deformation texture",
        [](Scene& s) { s.boxes[0].deformation_resolution = 128; }, 1},
       {"bunny_peel.json", "alpha map", [](Scene& s) { s.boxes[0].alpha_resolution = 256; }, 2},
-      {"bunny_twist.json", "step bounds",
-       [](Scene& s) {
-         s.render.sampling = "bounded";
-         s.boxes[0].deformation_resolution = 256;
-       },
-       2},
+      {"bunny_twist.json", "step bounds", [](Scene& s) { s.render.sampling = "bounded"; }, 2},
       {"bunny_twist.json", "depth cube",
        [](Scene& s) {
          s.boxes[0].implicit.type = "depth_cube";

@@ -23,6 +23,7 @@
 #include "gl/renderer.h"
 #include "library/image.h"
 #include "library/scene.h"
+#include "tests/seam_check.h"
 #include "verify/reference.h"
 
 namespace raywarp {
@@ -113,6 +114,8 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
     }
   EXPECT_GE(c.iou, iou);
   EXPECT_LE(c.fraction_over, over);
+  static_assert(kSize == testing::kSeamImageSize);
+  testing::expect_no_new_cracks("zoo/" + name + ".json", prepared, camera, image, scene.render);
 
   // Continuous deformations: the pixels that sphere tracing with Lipschitz bounds (`bounded`,
   // which never steps over a surface) covers and the default sampler misses. A figure, not a
