@@ -133,45 +133,28 @@ struct PlyElement {
 
 enum class PlyFormat { Ascii, LittleEndian, BigEndian };
 
+template <typename T>
+double load_as(const unsigned char* b) {
+  T v;
+  std::memcpy(&v, b, sizeof v);
+  return static_cast<double>(v);
+}
+
 double read_binary(const std::string& bytes, size_t at, const PlyType& t, bool little) {
   unsigned char b[8];
   std::memcpy(b, bytes.data() + at, static_cast<size_t>(t.size));
   if (!little) std::reverse(b, b + t.size);
   switch (t.kind) {
     case 'i':
-      if (t.size == 1) return static_cast<int8_t>(b[0]);
-      if (t.size == 2) {
-        int16_t v;
-        std::memcpy(&v, b, 2);
-        return v;
-      }
-      {
-        int32_t v;
-        std::memcpy(&v, b, 4);
-        return v;
-      }
+      return t.size == 1   ? load_as<int8_t>(b)
+             : t.size == 2 ? load_as<int16_t>(b)
+                           : load_as<int32_t>(b);
     case 'u':
-      if (t.size == 1) return b[0];
-      if (t.size == 2) {
-        uint16_t v;
-        std::memcpy(&v, b, 2);
-        return v;
-      }
-      {
-        uint32_t v;
-        std::memcpy(&v, b, 4);
-        return v;
-      }
+      return t.size == 1   ? load_as<uint8_t>(b)
+             : t.size == 2 ? load_as<uint16_t>(b)
+                           : load_as<uint32_t>(b);
     default:
-      if (t.size == 4) {
-        float v;
-        std::memcpy(&v, b, 4);
-        return v;
-      } else {
-        double v;
-        std::memcpy(&v, b, 8);
-        return v;
-      }
+      return t.size == 4 ? load_as<float>(b) : load_as<double>(b);
   }
 }
 

@@ -8,19 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build=${2:-build-fuzz}
-missing=()
-for p in clang libclang-rt-14-dev; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "raywarp fuzz: installing ${missing[*]}"
-  sudo=""
-  [ "$(id -u)" = 0 ] || sudo="sudo"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
 # -O1, as the sanitizer build of .ci/run: a third of the -O2 compile time on 2 cores.
-bash scripts/setup.sh "$build" -DRAYWARP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++ \
+RAYWARP_EXTRA_PACKAGES="clang libclang-rt-14-dev" bash scripts/setup.sh "$build" -DRAYWARP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++ \
   "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -DNDEBUG" >/dev/null
 mkdir -p "$build/corpus/scene" "$build/corpus/mesh" "$build/artifacts"
 # Seeds: every shipped scene; the shipped bunny and small meshes of each format, each behind

@@ -4,6 +4,7 @@
 # them and libopenvdb-dev does not pull them in; libegl-mesa0 is Mesa's EGL driver (llvmpipe
 # without a GPU), which libegl1 only recommends.
 # Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
+# RAYWARP_EXTRA_PACKAGES (space-separated) adds packages to the list (scripts/fuzz.sh: clang).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -11,7 +12,8 @@ shift || true
 packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboost-iostreams-dev
           libtbb-dev libassimp-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0
           nlohmann-json3-dev libcli11-dev
-          libstb-dev libgif-dev liblzma-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev)
+          libstb-dev libgif-dev liblzma-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev
+          ${RAYWARP_EXTRA_PACKAGES:-})
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
