@@ -210,7 +210,7 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       m(a, 3) = h * (s - 1.0);
       // The region of this frame's deformed box, within the baked texture's; the bound of
       // |I + J_D M| <= |I + J_D| |M| + |I - M| = L + (1 - s).
-      const double texel = baked.deformation.grid.spacing;
+      const double texel = baked.deformation.grid.voxel();
       auto twist = make_twist(spec.box.half_extents, static_cast<Axis>(a), spec.deformer.angle_deg);
       Eigen::AlignedBox3d region =
           deformed_bounds(*twist, spec.box.half_extents, texel)

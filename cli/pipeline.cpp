@@ -14,6 +14,12 @@ std::string dims_string(const Eigen::Vector3i& d) {
   return std::to_string(d.x()) + "x" + std::to_string(d.y()) + "x" + std::to_string(d.z());
 }
 
+// A texel's side, or its three sides where they differ.
+std::string spacing_string(const Eigen::Vector3d& s) {
+  if (s.maxCoeff() - s.minCoeff() <= 1e-9 * s.maxCoeff()) return fmt("%.4g", s.x());
+  return fmt("%.4g", s.x()) + "x" + fmt("%.4g", s.y()) + "x" + fmt("%.4g", s.z());
+}
+
 double mib(std::uint64_t bytes) { return double(bytes) / (1 << 20); }
 
 }  // namespace
@@ -38,7 +44,7 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
                                           : "cache (" + session.disk()->dir().string() + ")")
           << "\n";
     log << tag << "distance grid " << dims_string(s->resolution) << ", voxel "
-        << fmt("%.4g", s->spacing) << ", band " << fmt("%.3g", r.band_voxels) << " voxels, "
+        << fmt("%.4g", s->spacing.x()) << ", band " << fmt("%.3g", r.band_voxels) << " voxels, "
         << r.active_voxels << " in band, " << fmt("%.1f", mib(s->bytes)) << " MiB, sign by "
         << r.sign_method << " (" << fmt("%.2f", s->seconds) << " s)\n";
   }
@@ -49,14 +55,30 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << " voxels beyond (" << fmt("%.2f", def->seconds) << " s)\n";
   } else {
     log << tag << "deformation texture " << dims_string(def->resolution) << ", texel "
-        << fmt("%.4g", def->spacing) << ", " << fmt("%.1f", mib(def->bytes))
+        << spacing_string(def->spacing) << ", " << fmt("%.1f", mib(def->bytes))
         << " MiB, |I + J_D| <= " << fmt("%.3g", r.lipschitz) << " (" << fmt("%.2f", def->seconds)
         << " s)\n";
+    const ResolutionChoice& c = r.deformation_choice;
+    if (c.automatic)
+      log << tag << "deformation texture layout: auto, for an error of at most "
+          << fmt("%g", kAutoErrorVoxels) << " voxel within " << fmt("%g", mib(c.budget_bytes))
+          << " MiB: " << c.bakes << (c.bakes == 1 ? " bake" : " bakes")
+          << (c.budget_bound ? ", held to the budget" : "") << "\n";
   }
   if (const StageReport* a = r.stage(Stage::Alpha))
     log << tag << cut_mode_name(tex.cut_mode) << " cut, alpha map " << dims_string(a->resolution)
-        << ", texel " << fmt("%.4g", a->spacing) << ", " << fmt("%.1f", mib(a->bytes)) << " MiB ("
-        << fmt("%.2f", a->seconds) << " s)\n";
+        << ", texel " << spacing_string(a->spacing) << ", " << fmt("%.1f", mib(a->bytes))
+        << " MiB (" << fmt("%.2f", a->seconds) << " s)\n";
+  if (r.stage(Stage::Alpha)) {
+    log << tag << "alpha map error near the cut face: " << fmt("%.3g", r.alpha_error) << " units ("
+        << fmt("%.2g", r.voxel > 0 ? r.alpha_error / r.voxel : 0.0) << " voxels)";
+    const ResolutionChoice& c = r.alpha_choice;
+    if (c.automatic)
+      log << "; layout auto, for at most " << fmt("%g", kAutoErrorVoxels) << " voxel within "
+          << fmt("%g", mib(c.budget_bytes)) << " MiB: " << c.bakes
+          << (c.bakes == 1 ? " bake" : " bakes") << (c.budget_bound ? ", held to the budget" : "");
+    log << "\n";
+  }
   if (!r.moves_nothing) {
     const InverseResidual& res = r.residual;
     log << tag << "inverse residual |F(p' + D(p')) - p'| over " << res.texels

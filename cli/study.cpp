@@ -288,8 +288,10 @@ constexpr int kBoundedMaxSteps = 4096;
 // A scene box with a point's resolutions (scaled, within the scene format's minimums) and band.
 BoxSpec scaled_box(BoxSpec b, const Point& p) {
   b.implicit.resolution = std::max(8, int(std::lround(b.implicit.resolution * p.resolution_scale)));
-  b.deformation_resolution =
-      std::max(4, int(std::lround(b.deformation_resolution * p.resolution_scale)));
+  // An automatic layout follows the scaled grid's voxel by itself.
+  if (b.deformation_resolution != kAutoResolution)
+    b.deformation_resolution =
+        std::max(4, int(std::lround(b.deformation_resolution * p.resolution_scale)));
   if (p.band > 0) b.implicit.band_voxels = p.band;
   return b;
 }
@@ -307,7 +309,8 @@ std::string describe_point(const Point& p, const BoxSpec& base) {
   if (p.method == "threshold")
     s += ", fine " + fmt("%.3g", p.fine) + " within " + fmt("%g", p.threshold);
   if (p.method != "bounded") s += ", refine " + std::to_string(p.refine);
-  s += ", SDF " + std::to_string(sdf) + ", D " + std::to_string(def) + ", " +
+  s += ", SDF " + std::to_string(sdf) + ", D " +
+       (def == kAutoResolution ? std::string("auto") : std::to_string(def)) + ", " +
        std::to_string(p.bits) + "-bit";
   return s;
 }
@@ -637,7 +640,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         const BoxTextures& t = prepared.boxes[0].textures;
         const BoxSpec scaled = scaled_box(scene.boxes[0], p);
         r.sdf_resolution = scaled.implicit.resolution;
-        r.deformation_resolution = scaled.deformation_resolution;
+        r.deformation_resolution = t.deformation.grid.dims.maxCoeff();
         r.band_voxels = t.sdf.band_voxels;
       }
       r.ms = frame_median(renderer, camera, options.size, options.size, settings, options.frames);

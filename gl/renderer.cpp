@@ -460,11 +460,11 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.f1("u_background", implicit_background(b.data));
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
-    rc.f1("u_def_spacing", def.spacing);
+    rc.vec3("u_def_spacing", def.spacing);
     rc.mat4("u_texture_map", b.data.texture_map);
     rc.vec3("u_alpha_origin", alpha.origin);
     rc.vec3("u_alpha_size", alpha.extent());
-    rc.f1("u_alpha_spacing", alpha.spacing);
+    rc.vec3("u_alpha_spacing", alpha.spacing);
     rc.f1("u_thickness", b.data.shell_thickness);
     rc.f1("u_lipschitz", b.data.lipschitz);
     rc.f1("u_cut_margin", cut_margin(b.data));
@@ -475,9 +475,9 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     if (variant.has(Feature::SamplingBounded)) {
       const StepBounds& sb = b.data.step_bounds;
       rc.vec3("u_brick_origin", sb.bricks.origin);
-      rc.f1("u_brick_spacing", sb.bricks.spacing);
+      rc.vec3("u_brick_spacing", sb.bricks.spacing);
       rc.vec3("u_sdf_brick_origin", sb.sdf_bricks.origin);
-      rc.f1("u_sdf_brick_spacing", sb.sdf_bricks.spacing);
+      rc.f1("u_sdf_brick_spacing", sb.sdf_bricks.voxel());
       rc.f1("u_inv_lipschitz_w", sb.validity_lipschitz > 0.0 ? 1.0 / sb.validity_lipschitz : 0.0);
       rc.f1("u_epsilon", settings.hit_epsilon_voxels * voxel);
     }

@@ -91,11 +91,30 @@ bool load_sdf(const std::vector<char>& bytes, DistanceGrid& g) {
   return true;
 }
 
+void save_choice(CacheWriter& w, const ResolutionChoice& c) {
+  w.integer(c.automatic);
+  w.number(c.target);
+  w.integer(static_cast<std::int64_t>(c.budget_bytes));
+  w.integer(c.bakes);
+  w.integer(c.budget_bound);
+}
+
+ResolutionChoice load_choice(CacheReader& r) {
+  ResolutionChoice c;
+  c.automatic = r.integer() != 0;
+  c.target = r.number();
+  c.budget_bytes = static_cast<std::uint64_t>(r.integer());
+  c.bakes = static_cast<int>(r.integer());
+  c.budget_bound = r.integer() != 0;
+  return c;
+}
+
 // D with the figures measured on it, which cost as much as the bake.
 struct DeformationRecord {
   DeformationTexture texture;
   double lipschitz = std::numeric_limits<double>::infinity();
   double texture_error = 0.0;
+  ResolutionChoice choice;
   FoldReport folds;
   InverseResidual residual;
 };
@@ -106,6 +125,7 @@ std::vector<char> save_deformation(const DeformationRecord& d) {
   w.number(d.texture.bake_seconds);
   w.number(d.lipschitz);
   w.number(d.texture_error);
+  save_choice(w, d.choice);
   w.number(d.folds.folded_volume);
   w.number(d.folds.box_volume);
   w.number(d.residual.max);
@@ -124,6 +144,7 @@ bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
   out.texture.bake_seconds = r.number();
   out.lipschitz = r.number();
   out.texture_error = r.number();
+  out.choice = load_choice(r);
   out.folds.folded_volume = r.number();
   out.folds.box_volume = r.number();
   out.residual.max = r.number();
@@ -137,18 +158,29 @@ bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
   return true;
 }
 
-std::vector<char> save_alpha(const AlphaMap& a) {
+// A with its measured error and how its layout was chosen.
+struct AlphaRecord {
+  AlphaMap map;
+  double error = 0.0;
+  ResolutionChoice choice;
+};
+
+std::vector<char> save_alpha(const AlphaRecord& a) {
   CacheWriter w;
-  w.grid(a.grid);
-  w.number(a.bake_seconds);
+  w.grid(a.map.grid);
+  w.number(a.map.bake_seconds);
+  w.number(a.error);
+  save_choice(w, a.choice);
   return w.bytes();
 }
 
-bool load_alpha(const std::vector<char>& bytes, AlphaMap& a) {
+bool load_alpha(const std::vector<char>& bytes, AlphaRecord& a) {
   CacheReader r(bytes);
-  AlphaMap out;
-  if (!r.grid(out.grid, kMemoryBudgetBytes)) return false;
-  out.bake_seconds = r.number();
+  AlphaRecord out;
+  if (!r.grid(out.map.grid, kMemoryBudgetBytes)) return false;
+  out.map.bake_seconds = r.number();
+  out.error = r.number();
+  out.choice = load_choice(r);
   if (!r.ok() || !r.at_end()) return false;
   a = std::move(out);
   return true;
@@ -179,7 +211,7 @@ bool load_step_bounds(const std::vector<char>& bytes, StepBounds& b) {
 
 std::uint64_t value_bytes(const DeformationRecord& d) { return grid_bytes(d.texture.grid); }
 std::uint64_t value_bytes(const DistanceGrid& g) { return grid_bytes(g.grid); }
-std::uint64_t value_bytes(const AlphaMap& a) { return grid_bytes(a.grid); }
+std::uint64_t value_bytes(const AlphaRecord& a) { return grid_bytes(a.map.grid); }
 std::uint64_t value_bytes(const StepBounds& b) {
   return grid_bytes(b.bricks) + grid_bytes(b.sdf_bricks);
 }
@@ -485,7 +517,7 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     s.stage = Stage::DepthCube;
     s.source = source;
     s.resolution = Eigen::Vector3i(tex.depth_cube.maps[0].nu, tex.depth_cube.maps[0].nv, 6);
-    s.spacing = tex.depth_cube.spacing;
+    s.spacing = Eigen::Vector3d::Constant(tex.depth_cube.spacing);
     s.bytes = tex.depth_cube.texture_bytes();
     s.seconds = tex.depth_cube.bake_seconds;
     report.stages.push_back(s);
@@ -513,11 +545,20 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   report.moves_nothing = tex.moves_nothing;
   // A deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
   // bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
+  const bool automatic = !tex.moves_nothing && spec.deformation_resolution == kAutoResolution;
   const int resolution = tex.moves_nothing ? 2 : spec.deformation_resolution;
+  const double target = kAutoErrorVoxels * voxel;
+  const auto budget = static_cast<std::uint64_t>(spec.deformation_max_mib * double(1 << 20));
   const bool centred = job.centre_on_lower_faces && !tex.moves_nothing;
+  Key layout;
+  if (automatic)
+    layout << "auto, error" << target << "budget" << double(budget) << "floor"
+           << kAutoFloorResolution;
+  else
+    layout << resolution;
   const std::string def_key =
       (Key() << "deformation\n"
-             << deformer_key(spec) << "\nresolution" << resolution
+             << deformer_key(spec) << "\nresolution" << layout.str()
              << (job.centre_on_lower_faces ? "centred on the lower faces" : "")
              << "residual tolerance" << kResidualVoxels * voxel)
           .str();
@@ -527,10 +568,19 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       [&] {
         DeformationRecord r;
         const Deformer& d = *out.deformer;
-        r.texture = bake_deformation(d, spec.box.half_extents, resolution, centred, interrupter);
+        if (automatic) {
+          AutoDeformation a = bake_deformation_auto(d, spec.box.half_extents, target, budget,
+                                                    kAutoFloorResolution, centred, interrupter);
+          r.texture = std::move(a.texture);
+          r.texture_error = a.error;
+          r.choice = a.choice;
+        } else {
+          r.texture = bake_deformation(d, spec.box.half_extents, resolution, centred, interrupter);
+          if (!tex.moves_nothing)
+            r.texture_error = deformation_texture_error(d, r.texture, 2, interrupter);
+        }
         if (!tex.moves_nothing) {
           r.lipschitz = displacement_lipschitz(d, r.texture, interrupter);
-          r.texture_error = deformation_texture_error(d, r.texture, 2, interrupter);
           r.residual = measure_inverse_residual(d, r.texture, kResidualVoxels * voxel, interrupter);
         }
         r.folds = measure_folds(d, spec.box.half_extents, 64, interrupter);
@@ -557,22 +607,49 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     tex.has_cut = true;
     tex.cut_mode = spec.cut_mode;
     tex.shell_thickness = spec.shell_thickness;
+    const bool auto_alpha = spec.alpha_resolution == kAutoResolution;
+    const auto alpha_budget = static_cast<std::uint64_t>(spec.alpha_max_mib * double(1 << 20));
+    const double band = kAlphaBandVoxels * voxel;
+    Key alpha_layout;
+    if (auto_alpha)
+      alpha_layout << "auto, error" << target << "band" << band << "budget" << double(alpha_budget)
+                   << "floor" << kAutoAlphaFloorResolution;
+    else
+      alpha_layout << spec.alpha_resolution;
     const std::string alpha_key =
         (Key() << "alpha\n"
                << deformer_key(spec) << "\nregion" << tex.region.min().x() << tex.region.min().y()
                << tex.region.min().z() << tex.region.max().x() << tex.region.max().y()
-               << tex.region.max().z() << "\nresolution" << spec.alpha_resolution)
+               << tex.region.max().z() << "\nresolution" << alpha_layout.str())
             .str();
+    AlphaRecord alpha;
     const Source source = stage(
-        tex.alpha, "alpha", alpha_key, counters_.alpha,
-        [&] { return bake_alpha(*out.deformer, tex.region, spec.alpha_resolution, interrupter); },
+        alpha, "alpha", alpha_key, counters_.alpha,
+        [&] {
+          AlphaRecord r;
+          if (auto_alpha) {
+            AutoAlpha a = bake_alpha_auto(*out.deformer, tex.region, target, band, alpha_budget,
+                                          kAutoAlphaFloorResolution, interrupter);
+            r.map = std::move(a.map);
+            r.error = a.error;
+            r.choice = a.choice;
+          } else {
+            r.map = bake_alpha(*out.deformer, tex.region, spec.alpha_resolution, interrupter);
+            r.error = alpha_map_error(*out.deformer, r.map, band, 1, interrupter);
+          }
+          return r;
+        },
         save_alpha, load_alpha);
+    tex.alpha = std::move(alpha.map);
+    report.alpha_error = alpha.error;
+    report.alpha_choice = alpha.choice;
     report.stages.push_back(
         grid_stage(Stage::Alpha, tex.alpha.grid, tex.alpha.bake_seconds, source));
   }
 
   if (!tex.moves_nothing) {
     report.texture_error = record.texture_error;
+    report.deformation_choice = record.choice;
     report.residual = record.residual;
     const InverseResidual& res = record.residual;
     if (res.over_tolerance > 0) {
@@ -586,14 +663,21 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       report.warnings.push_back({"inverse_residual", w});
     }
     const double voxels = report.texture_error_voxels();
+    const std::string advice =
+        automatic ? "raise deformation.max_mib (now " + fmt("%g", spec.deformation_max_mib) +
+                        "; the automatic layout stopped " +
+                        (record.choice.budget_bound
+                             ? std::string("at that budget")
+                             : "after " + std::to_string(record.choice.bakes) + " bakes") +
+                        ")"
+                  : "raise deformation.resolution (now " +
+                        std::to_string(spec.deformation_resolution) + ") or set it to \"auto\"";
     if (voxels > 1.0)
       report.warnings.push_back(
-          {"texture_coarse",
-           "the deformation texture misplaces points by up to " +
-               fmt("%.3g", report.texture_error) + " units (" + fmt("%.2g", voxels) +
-               " voxels of the distance grid) between its texels: raise deformation.resolution "
-               "(now " +
-               std::to_string(spec.deformation_resolution) + ")"});
+          {"texture_coarse", "the deformation texture misplaces points by up to " +
+                                 fmt("%.3g", report.texture_error) + " units (" +
+                                 fmt("%.2g", voxels) +
+                                 " voxels of the distance grid) between its texels: " + advice});
   }
   report.folds = record.folds;
   if (report.folds.folds())

@@ -55,7 +55,7 @@ struct StageReport {
   Stage stage = Stage::DistanceGrid;
   Source source = Source::Baked;
   Eigen::Vector3i resolution = Eigen::Vector3i::Zero();  // texels per axis
-  double spacing = 0.0;                                  // texel size, object units
+  Eigen::Vector3d spacing = Eigen::Vector3d::Zero();     // texel sides per axis, object units
   std::uint64_t bytes = 0;                               // as the GPU stores it (32-bit)
   double seconds = 0.0;                                  // the bake's own time, also when read back
 };
@@ -85,6 +85,11 @@ struct BakeReport {
   double lipschitz = 0.0;      // bound of |I + J_D| of the interpolated texture
   double texture_error = 0.0;  // deformation_texture_error, object units
   double texture_error_voxels() const { return voxel > 0 ? texture_error / voxel : 0.0; }
+  ResolutionChoice deformation_choice;  // how an automatic layout was chosen
+  // Alpha map (stage Alpha): alpha_map_error within kAlphaBandVoxels of the cut face, object
+  // units, and how an automatic layout was chosen.
+  double alpha_error = 0.0;
+  ResolutionChoice alpha_choice;
   InverseResidual residual;  // measure_inverse_residual at kResidualVoxels voxels
   FoldReport folds;
   // Step bounds (stage StepBounds): the ranges of the per-brick bounds.

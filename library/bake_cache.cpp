@@ -14,7 +14,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr char kMagic[] = "RAYWARP-BAKE-CACHE-1\n";
+constexpr char kMagic[] = "RAYWARP-BAKE-CACHE-2\n";
 constexpr std::uint64_t kMaxEntryBytes = std::uint64_t(8) << 30;
 
 std::string hex(std::uint64_t h) {

@@ -38,7 +38,7 @@ class CacheWriter {
   template <class T>
   void grid(const Grid3<T>& g) {
     for (int a = 0; a < 3; ++a) number(g.origin[a]);
-    number(g.spacing);
+    for (int a = 0; a < 3; ++a) number(g.spacing[a]);
     for (int a = 0; a < 3; ++a) integer(g.dims[a]);
     raw(g.data.data(), g.data.size() * sizeof(T));
   }
@@ -61,7 +61,8 @@ class CacheReader {
   bool grid(Grid3<T>& g, std::uint64_t max_bytes) {
     Eigen::Vector3d origin;
     for (int a = 0; a < 3; ++a) origin[a] = number();
-    const double spacing = number();
+    Eigen::Vector3d spacing;
+    for (int a = 0; a < 3; ++a) spacing[a] = number();
     Eigen::Vector3i dims;
     std::uint64_t count = 1;
     for (int a = 0; a < 3; ++a) {

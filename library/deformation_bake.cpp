@@ -13,31 +13,11 @@
 
 namespace raywarp {
 
-DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                                    int resolution, bool centre_on_lower_faces,
-                                    Interrupter* interrupter) {
-  if (resolution < 1)
-    throw Error("bake_deformation: resolution = " + std::to_string(resolution) + ": must be >= 1");
-  const auto start = std::chrono::steady_clock::now();
-  Eigen::AlignedBox3d bounds = deformed_bounds(deformer, half_extents);
-  const double pad = bounds.sizes().maxCoeff() / resolution;
-  bounds.min().array() -= pad;
-  bounds.max().array() += pad;
+namespace {
 
-  DeformationTexture texture;
-  Grid3<Eigen::Vector4f>& grid = texture.grid;
-  grid = make_grid_over(bounds.min(), bounds.max(), resolution, Eigen::Vector4f::Zero().eval());
-  if (centre_on_lower_faces) {
-    for (int a = 0; a < 3; ++a) {
-      const double k = (-half_extents[a] - grid.origin[a]) / grid.spacing - 0.5;
-      const double shift = k - std::floor(k);  // a centre lies `shift` texels above -h
-      grid.origin[a] += (shift - 1.0) * grid.spacing;
-      grid.dims[a] += 1;
-    }
-    grid.data.assign(static_cast<size_t>(grid.dims.x()) * grid.dims.y() * grid.dims.z(),
-                     Eigen::Vector4f::Zero());
-  }
-
+// D at the texel centres of `grid` (its texels already laid out).
+void bake_on_grid(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                  Grid3<Eigen::Vector4f>& grid, Interrupter* interrupter) {
   std::atomic<bool> all_finite{true};
   // One row of texels per index: a control-point deformer's Newton iterations make a slice too
   // long between polls.
@@ -60,21 +40,248 @@ DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vecto
   if (!all_finite)
     throw Error("bake_deformation: " + deformer.describe() +
                 ": the inverse displacement is not finite at some texels");
+}
 
+// Shifts `grid` down by less than a texel along each axis, and grows it by one, so that texel
+// centres lie on the planes -h (see bake_deformation).
+void centre_on_lower_faces(Grid3<Eigen::Vector4f>& grid, const Eigen::Vector3d& half_extents) {
+  for (int a = 0; a < 3; ++a) {
+    const double k = (-half_extents[a] - grid.origin[a]) / grid.spacing[a] - 0.5;
+    const double shift = k - std::floor(k);  // a centre lies `shift` texels above -h
+    grid.origin[a] += (shift - 1.0) * grid.spacing[a];
+    grid.dims[a] += 1;
+  }
+  grid.data.assign(static_cast<size_t>(grid.dims.x()) * grid.dims.y() * grid.dims.z(),
+                   Eigen::Vector4f::Zero());
+}
+
+DeformationTexture bake_layout(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                               Grid3<Eigen::Vector4f> grid, bool centred,
+                               Interrupter* interrupter) {
+  const auto start = std::chrono::steady_clock::now();
+  if (centred) centre_on_lower_faces(grid, half_extents);
+  DeformationTexture texture;
+  texture.grid = std::move(grid);
+  bake_on_grid(deformer, half_extents, texture.grid, interrupter);
   texture.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return texture;
 }
 
-AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution,
-                    Interrupter* interrupter) {
-  if (!deformer.has_cut()) throw Error("bake_alpha: " + deformer.describe() + " has no cut");
+constexpr int kMaxCount = 1024;  // texels along any axis of an automatic layout
+
+}  // namespace
+
+Grid3<Eigen::Vector4f> deformation_layout(const Deformer& deformer,
+                                          const Eigen::Vector3d& half_extents, int resolution) {
   if (resolution < 1)
-    throw Error("bake_alpha: resolution = " + std::to_string(resolution) + ": must be >= 1");
+    throw Error("bake_deformation: resolution = " + std::to_string(resolution) + ": must be >= 1");
+  Eigen::AlignedBox3d bounds = deformed_bounds(deformer, half_extents);
+  const double pad = bounds.sizes().maxCoeff() / resolution;
+  bounds.min().array() -= pad;
+  bounds.max().array() += pad;
+  return make_grid_over(bounds.min(), bounds.max(), resolution, Eigen::Vector4f::Zero().eval());
+}
+
+Grid3<Eigen::Vector4f> deformation_layout(const Deformer& deformer,
+                                          const Eigen::Vector3d& half_extents,
+                                          const Eigen::Vector3i& counts) {
+  if ((counts.array() < 3).any())
+    throw Error("bake_deformation: texel counts must be >= 3 per axis");
+  const Eigen::AlignedBox3d bounds = deformed_bounds(deformer, half_extents);
+  // One texel of padding on each side: spacing_a = extent_a / (n_a - 2).
+  const Eigen::Vector3d spacing =
+      bounds.sizes().cwiseMax(1e-12).cwiseQuotient((counts.array() - 2).cast<double>().matrix());
+  return Grid3<Eigen::Vector4f>(bounds.min() - spacing, spacing, counts, Eigen::Vector4f::Zero());
+}
+
+DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                    int resolution, bool centred, Interrupter* interrupter) {
+  return bake_layout(deformer, half_extents, deformation_layout(deformer, half_extents, resolution),
+                     centred, interrupter);
+}
+
+DeformationTexture bake_deformation(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                    const Eigen::Vector3i& counts, bool centred,
+                                    Interrupter* interrupter) {
+  return bake_layout(deformer, half_extents, deformation_layout(deformer, half_extents, counts),
+                     centred, interrupter);
+}
+
+Eigen::Vector3d axis_interpolation_errors(const Deformer& deformer,
+                                          const DeformationTexture& texture,
+                                          Interrupter* interrupter) {
+  const Grid3<Eigen::Vector4f>& grid = texture.grid;
+  const bool cut = deformer.has_cut();
+  const double reach = 2.0 * grid.spacing.norm();  // texels this near the cut are skipped
+  const int slices = grid.dims.z();
+  std::vector<Eigen::Vector3d> slice_max(std::max(slices, 1), Eigen::Vector3d::Zero());
+  parallel_for(
+      slices,
+      [&](long ks) {
+        const int k = int(ks);
+        Eigen::Vector3d worst = Eigen::Vector3d::Zero();
+        for (int j = 0; j < grid.dims.y(); ++j)
+          for (int i = 0; i < grid.dims.x(); ++i) {
+            const Eigen::Vector4f& c = grid.at(i, j, k);
+            if (!(c.w() >= 0.5f)) continue;
+            bool near_cut_known = false, near_cut = false;
+            const int ijk[3] = {i, j, k};
+            for (int a = 0; a < 3; ++a) {
+              if (ijk[a] == 0 || ijk[a] + 1 >= grid.dims[a]) continue;
+              int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+              --lo[a];
+              ++hi[a];
+              const Eigen::Vector4f& l = grid.at(lo[0], lo[1], lo[2]);
+              const Eigen::Vector4f& h = grid.at(hi[0], hi[1], hi[2]);
+              if (!(l.w() >= 0.5f) || !(h.w() >= 0.5f)) continue;
+              if (cut && !near_cut_known) {
+                near_cut = deformer.alpha(grid.texel_centre(i, j, k)) > -reach;
+                near_cut_known = true;
+              }
+              if (near_cut) break;
+              const double second = (h.head<3>().cast<double>() - 2.0 * c.head<3>().cast<double>() +
+                                     l.head<3>().cast<double>())
+                                        .norm();
+              // Linear interpolation between two texels misses f by about h^2 f'' / 8 halfway.
+              worst[a] = std::max(worst[a], second / 8.0);
+            }
+          }
+        slice_max[k] = worst;
+      },
+      interrupter, "deformation texture: error per axis");
+  Eigen::Vector3d worst = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& w : slice_max) worst = worst.cwiseMax(w);
+  return worst;
+}
+
+Eigen::Vector3i counts_for_error(const Eigen::Vector3i& counts, const Eigen::Vector3d& errors,
+                                 double target, const Eigen::Vector3i& floor) {
+  // The error along axis a falls as 1 / n_a^2: c_a = e_a n_a^2. The fewest texels (the least
+  // product of the counts) with sum_a c_a / n_a^2 <= target share the target equally among the
+  // axes that are not held at their floor (a Lagrange multiplier gives equal terms).
+  Eigen::Vector3d c;
+  for (int a = 0; a < 3; ++a) c[a] = errors[a] * double(counts[a]) * double(counts[a]);
+  bool fixed[3] = {false, false, false};
+  Eigen::Vector3d n = floor.cast<double>();
+  for (int round = 0; round < 3; ++round) {
+    double left = target;
+    int free = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (fixed[a])
+        left -= c[a] / (n[a] * n[a]);
+      else
+        ++free;
+    }
+    if (free == 0) break;
+    const double share = std::max(left, 1e-3 * target) / free;
+    bool changed = false;
+    for (int a = 0; a < 3; ++a) {
+      if (fixed[a]) continue;
+      n[a] = std::sqrt(c[a] / share);
+      if (n[a] <= floor[a]) {
+        n[a] = floor[a];
+        fixed[a] = true;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  Eigen::Vector3i out;
+  for (int a = 0; a < 3; ++a)
+    out[a] = static_cast<int>(std::clamp(std::ceil(n[a]), double(floor[a]), double(kMaxCount)));
+  return out;
+}
+
+namespace {
+
+// The refinement both automatic layouts share. `bake(counts, first)` bakes at `counts` (the
+// floor's own layout when `first`) and returns the measured error; `per_axis()` estimates the
+// errors along each axis of what was baked last. `grown` texels are added along each axis after
+// the choice (the lower-face shift), and counted against the budget.
+template <class Bake, class PerAxis>
+void refine_layout(const Eigen::Vector3i& floor, std::uint64_t texel_bytes, int grown,
+                   ResolutionChoice& choice, double& error, Bake&& bake, PerAxis&& per_axis) {
+  auto bytes_of = [&](const Eigen::Vector3i& n) {
+    return std::uint64_t(n.x() + grown) * (n.y() + grown) * (n.z() + grown) * texel_bytes;
+  };
+  // Texel counts whose texture fits the budget: all axes scaled down alike, none below 3.
+  auto within_budget = [&](Eigen::Vector3i n) {
+    for (int round = 0; round < 64 && bytes_of(n) > choice.budget_bytes; ++round) {
+      const double s = std::cbrt(double(choice.budget_bytes) / double(bytes_of(n)));
+      Eigen::Vector3i m;
+      for (int a = 0; a < 3; ++a) m[a] = std::max(3, int(std::floor(n[a] * std::min(s, 0.999))));
+      if (m == n) break;
+      n = m;
+      choice.budget_bound = true;
+    }
+    return n;
+  };
+  Eigen::Vector3i counts = within_budget(floor);
+  // The estimates are per axis; the target is shared with a margin, since the measured error
+  // (at cell centres, all axes at once) may exceed their sum a little.
+  constexpr double kMargin = 0.8;
+  constexpr int kMaxBakes = 4;
+  const double target = choice.target;
+  for (int n = 1;; ++n) {
+    error = bake(counts, n == 1 && counts == floor);
+    choice.bakes = n;
+    if (error <= target || choice.budget_bound || n == kMaxBakes) break;
+    const Eigen::Vector3d errors = per_axis();
+    // Where the per-axis estimates fall short of the measured error, the target shrinks alike.
+    const double sum = errors.sum();
+    const double scale = sum > 0.0 ? std::min(1.0, sum / error) : 1.0;
+    Eigen::Vector3i next = counts_for_error(counts, errors, kMargin * target * scale, counts);
+    if (next == counts) {  // no axis stands out: refine all by the error's ratio
+      const double grow = std::sqrt(error / (kMargin * target));
+      for (int a = 0; a < 3; ++a) next[a] = std::min(kMaxCount, int(std::ceil(counts[a] * grow)));
+      if (next == counts) break;
+    }
+    next = within_budget(next.cwiseMax(3));
+    if (next == counts) break;
+    counts = next;
+  }
+}
+
+ResolutionChoice start_choice(double target, std::uint64_t budget_bytes) {
+  if (!(target > 0.0)) throw Error("automatic layout: the target error must be > 0");
+  ResolutionChoice choice;
+  choice.automatic = true;
+  choice.target = target;
+  choice.budget_bytes = budget_bytes;
+  return choice;
+}
+
+}  // namespace
+
+AutoDeformation bake_deformation_auto(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                      double target, std::uint64_t budget_bytes,
+                                      int floor_resolution, bool centred,
+                                      Interrupter* interrupter) {
+  AutoDeformation out;
+  out.choice = start_choice(target, budget_bytes);
   const auto start = std::chrono::steady_clock::now();
-  AlphaMap map;
-  Grid3<float>& grid = map.grid;
-  grid = make_grid_over(region.min(), region.max(), resolution, 0.0f);
+  // The floor: the cubic layout of `floor_resolution` texels along the longest side, baked as
+  // such (the same texture an explicit resolution bakes).
+  const Eigen::Vector3i floor = deformation_layout(deformer, half_extents, floor_resolution).dims;
+  refine_layout(
+      floor, sizeof(Eigen::Vector4f), centred ? 1 : 0, out.choice, out.error,
+      [&](const Eigen::Vector3i& counts, bool as_floor) {
+        out.texture =
+            as_floor
+                ? bake_deformation(deformer, half_extents, floor_resolution, centred, interrupter)
+                : bake_deformation(deformer, half_extents, counts, centred, interrupter);
+        return deformation_texture_error(deformer, out.texture, 2, interrupter);
+      },
+      [&] { return axis_interpolation_errors(deformer, out.texture, interrupter); });
+  out.texture.bake_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+namespace {
+
+void bake_alpha_on(const Deformer& deformer, Grid3<float>& grid, Interrupter* interrupter) {
   std::atomic<bool> all_finite{true};
   parallel_for(
       grid.dims.z(),
@@ -90,9 +297,114 @@ AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region,
   if (!all_finite)
     throw Error("bake_alpha: " + deformer.describe() +
                 ": the alpha map is not finite at some texels");
+}
+
+AlphaMap bake_alpha_grid(const Deformer& deformer, Grid3<float> grid, Interrupter* interrupter) {
+  if (!deformer.has_cut()) throw Error("bake_alpha: " + deformer.describe() + " has no cut");
+  const auto start = std::chrono::steady_clock::now();
+  AlphaMap map;
+  map.grid = std::move(grid);
+  bake_alpha_on(deformer, map.grid, interrupter);
   map.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return map;
+}
+
+}  // namespace
+
+AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region, int resolution,
+                    Interrupter* interrupter) {
+  if (resolution < 1)
+    throw Error("bake_alpha: resolution = " + std::to_string(resolution) + ": must be >= 1");
+  return bake_alpha_grid(deformer, make_grid_over(region.min(), region.max(), resolution, 0.0f),
+                         interrupter);
+}
+
+AlphaMap bake_alpha(const Deformer& deformer, const Eigen::AlignedBox3d& region,
+                    const Eigen::Vector3i& counts, Interrupter* interrupter) {
+  if ((counts.array() < 1).any()) throw Error("bake_alpha: texel counts must be >= 1 per axis");
+  return bake_alpha_grid(deformer, make_grid_with_counts(region.min(), region.max(), counts, 0.0f),
+                         interrupter);
+}
+
+double alpha_map_error(const Deformer& deformer, const AlphaMap& map, double band, int stride,
+                       Interrupter* interrupter) {
+  const Grid3<float>& grid = map.grid;
+  stride = std::max(stride, 1);
+  const int slices = std::max(0, (grid.dims.z() - 1 + stride - 1) / stride);
+  std::vector<double> slice_max(std::max(slices, 1), 0.0);
+  parallel_for(
+      slices,
+      [&](long ks) {
+        const int k = int(ks) * stride;
+        if (k + 1 >= grid.dims.z()) return;
+        double worst = 0.0;
+        for (int j = 0; j + 1 < grid.dims.y(); j += stride)
+          for (int i = 0; i + 1 < grid.dims.x(); i += stride) {
+            const Eigen::Vector3d centre = grid.cell_centre(i, j, k);
+            const double exact = deformer.alpha(centre);
+            if (!(std::abs(exact) < band)) continue;
+            worst = std::max(worst, std::abs(grid.sample(centre).value() - exact));
+          }
+        slice_max[ks] = worst;
+      },
+      interrupter, "alpha map: error");
+  double worst = 0.0;
+  for (double w : slice_max) worst = std::max(worst, w);
+  return worst;
+}
+
+Eigen::Vector3d alpha_axis_errors(const AlphaMap& map, double band, Interrupter* interrupter) {
+  const Grid3<float>& grid = map.grid;
+  const int slices = grid.dims.z();
+  std::vector<Eigen::Vector3d> slice_max(std::max(slices, 1), Eigen::Vector3d::Zero());
+  parallel_for(
+      slices,
+      [&](long ks) {
+        const int k = int(ks);
+        Eigen::Vector3d worst = Eigen::Vector3d::Zero();
+        for (int j = 0; j < grid.dims.y(); ++j)
+          for (int i = 0; i < grid.dims.x(); ++i) {
+            const double c = grid.at(i, j, k);
+            if (!(std::abs(c) < band)) continue;
+            const int ijk[3] = {i, j, k};
+            for (int a = 0; a < 3; ++a) {
+              if (ijk[a] == 0 || ijk[a] + 1 >= grid.dims[a]) continue;
+              int lo[3] = {i, j, k}, hi[3] = {i, j, k};
+              --lo[a];
+              ++hi[a];
+              const double second = double(grid.at(hi[0], hi[1], hi[2])) - 2.0 * c +
+                                    double(grid.at(lo[0], lo[1], lo[2]));
+              worst[a] = std::max(worst[a], std::abs(second) / 8.0);
+            }
+          }
+        slice_max[k] = worst;
+      },
+      interrupter, "alpha map: error per axis");
+  Eigen::Vector3d worst = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& w : slice_max) worst = worst.cwiseMax(w);
+  return worst;
+}
+
+AutoAlpha bake_alpha_auto(const Deformer& deformer, const Eigen::AlignedBox3d& region,
+                          double target, double band, std::uint64_t budget_bytes,
+                          int floor_resolution, Interrupter* interrupter) {
+  AutoAlpha out;
+  out.choice = start_choice(target, budget_bytes);
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::Vector3i floor =
+      make_grid_over(region.min(), region.max(), floor_resolution, 0.0f).dims;
+  refine_layout(
+      floor, sizeof(float), 0, out.choice, out.error,
+      [&](const Eigen::Vector3i& counts, bool as_floor) {
+        out.map = as_floor ? bake_alpha(deformer, region, floor_resolution, interrupter)
+                           : bake_alpha(deformer, region, counts, interrupter);
+        return alpha_map_error(deformer, out.map, band, 1, interrupter);
+      },
+      [&] { return alpha_axis_errors(out.map, band, interrupter); });
+  out.map.bake_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
 }
 
 double displacement_lipschitz(const Deformer& deformer, const DeformationTexture& texture,
@@ -108,8 +420,7 @@ double displacement_lipschitz(const Deformer& deformer, const DeformationTexture
         double worst = 0.0;
         for (int j = 0; j < cells.y(); ++j)
           for (int i = 0; i < cells.x(); ++i) {
-            const Eigen::Vector3d centre =
-                grid.texel_centre(i, j, k) + Eigen::Vector3d::Constant(0.5 * grid.spacing);
+            const Eigen::Vector3d centre = grid.cell_centre(i, j, k);
             if (cut && deformer.alpha(centre) > 0.0) continue;
             double sum = 0.0;
             for (int a = 0; a < 3; ++a) {
@@ -126,7 +437,7 @@ double displacement_lipschitz(const Deformer& deformer, const DeformationTexture
                                                grid.at(c0.x(), c0.y(), c0.z()).head<3>();
                   m = std::max(m, static_cast<double>(diff.norm()));
                 }
-              m /= grid.spacing;
+              m /= grid.spacing[a];
               sum += m * m;
             }
             worst = std::max(worst, std::sqrt(sum));
@@ -160,9 +471,8 @@ double deformation_texture_error(const Deformer& deformer, const DeformationText
             for (int c = 0; c < 8 && valid; ++c)
               valid = grid.at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2)).w() >= 0.5f;
             if (!valid) continue;
-            const Eigen::Vector3d centre =
-                grid.texel_centre(i, j, k) + Eigen::Vector3d::Constant(0.5 * grid.spacing);
-            if (cut && deformer.alpha(centre) > -std::sqrt(3.0) * grid.spacing) continue;
+            const Eigen::Vector3d centre = grid.cell_centre(i, j, k);
+            if (cut && deformer.alpha(centre) > -grid.spacing.norm()) continue;
             const Eigen::Vector3d exact = deformer.inverse(centre) - centre;
             worst = std::max(worst, (grid.sample(centre).head<3>() - exact).norm());
           }

@@ -180,7 +180,7 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
                         float background) {
   std::fill(grid.data.begin(), grid.data.end(), background);
   state.assign(grid.size(), kUnvisited);
-  const double reach = (spec.band_voxels + 1.0) * grid.spacing;
+  const double reach = (spec.band_voxels + 1.0) * grid.voxel();
   const Eigen::AlignedBox3d region(grid.origin - Eigen::Vector3d::Constant(reach),
                                    grid.upper() + Eigen::Vector3d::Constant(reach));
   NearTriangles near = triangles_near(mesh, box, region);
@@ -191,7 +191,7 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
   // centre at origin + (i + 0.5, j + 0.5, k + 0.5) * spacing, so the same (i, j, k) is the same
   // point.
   openvdb::math::Transform::Ptr transform =
-      openvdb::math::Transform::createLinearTransform(grid.spacing);
+      openvdb::math::Transform::createLinearTransform(grid.voxel());
   const Eigen::Vector3d first_centre = grid.texel_centre(0, 0, 0);
   transform->postTranslate(openvdb::Vec3d(first_centre.x(), first_centre.y(), first_centre.z()));
   VdbInterrupter vdb_interrupter(interrupter);
@@ -202,7 +202,7 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
 
   // OpenVDB's value is the distance to some triangle, in single precision from single-precision
   // points: padded by rounding (~1e-7 of coordinates ~resolution voxels), it bounds the search.
-  const float exact_below = float(1.5 * grid.spacing);
+  const float exact_below = float(1.5 * grid.voxel());
   std::vector<uint32_t> wave, next;
   // Queues the unvisited face neighbours of band texel t.
   auto grow = [&](uint32_t t) {
@@ -227,7 +227,7 @@ void unsigned_distances(const Mesh& mesh, const Box& box, const ImplicitSpec& sp
       continue;
     }
     state[t] = kQueued;
-    grid.data[t] = std::min(background, float(value * (1.0 + 1e-5) + 1e-3 * grid.spacing));
+    grid.data[t] = std::min(background, float(value * (1.0 + 1e-5) + 1e-3 * grid.voxel()));
     wave.push_back(static_cast<uint32_t>(t));
   }
   // The growth starts from every band texel, also the exact ones.

@@ -142,20 +142,37 @@ ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string
   return s;
 }
 
-int read_deformation(const JsonReader& r, const json& j, const std::string& field) {
-  r.require_object(j, field, "{\"resolution\": ...}");
-  r.check_keys(j, field, {"resolution"});
-  BoxSpec defaults;
-  if (!j.contains("resolution")) return defaults.deformation_resolution;
-  return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
+// "auto" or an integer in [4, 1024].
+int read_resolution(const JsonReader& r, const json& j, const std::string& field) {
+  if (j.is_string() && j.get<std::string>() == "auto") return kAutoResolution;
+  if (j.is_string()) r.fail(field, j, "must be \"auto\" or an integer in [4, 1024]");
+  return r.integer(j, field, 4, 1024);
 }
 
-int read_alpha(const JsonReader& r, const json& j, const std::string& field) {
-  r.require_object(j, field, "{\"resolution\": ...}");
-  r.check_keys(j, field, {"resolution"});
-  BoxSpec defaults;
-  if (!j.contains("resolution")) return defaults.alpha_resolution;
-  return r.integer(j["resolution"], child(field, "resolution"), 4, 1024);
+void read_deformation(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
+  r.require_object(j, field, "{\"resolution\": \"auto\"}");
+  r.check_keys(j, field, {"resolution", "max_mib"});
+  if (j.contains("resolution"))
+    b.deformation_resolution = read_resolution(r, j["resolution"], child(field, "resolution"));
+  if (j.contains("max_mib")) {
+    if (b.deformation_resolution != kAutoResolution)
+      r.fail(child(field, "max_mib"), j["max_mib"],
+             "applies to \"resolution\": \"auto\" only (an explicit resolution fixes the size)");
+    b.deformation_max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
+  }
+}
+
+void read_alpha(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
+  r.require_object(j, field, "{\"resolution\": \"auto\"}");
+  r.check_keys(j, field, {"resolution", "max_mib"});
+  if (j.contains("resolution"))
+    b.alpha_resolution = read_resolution(r, j["resolution"], child(field, "resolution"));
+  if (j.contains("max_mib")) {
+    if (b.alpha_resolution != kAutoResolution)
+      r.fail(child(field, "max_mib"), j["max_mib"],
+             "applies to \"resolution\": \"auto\" only (an explicit resolution fixes the size)");
+    b.alpha_max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
+  }
 }
 
 // cut_mode, shell_thickness and alpha, after the deformer has been read.
@@ -183,7 +200,7 @@ void read_cut_settings(const JsonReader& r, const json& j, const std::string& fi
            "only with cut_mode thick_shell; " + child(field, "cut_mode") + " is " + mode +
                (j.contains("cut_mode") ? "" : " (the default)"));
   }
-  if (j.contains("alpha")) b.alpha_resolution = read_alpha(r, j["alpha"], child(field, "alpha"));
+  if (j.contains("alpha")) read_alpha(r, j["alpha"], child(field, "alpha"), b);
 }
 
 BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
@@ -202,7 +219,7 @@ BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   if (j.contains("implicit"))
     b.implicit = read_implicit(r, j["implicit"], child(field, "implicit"));
   if (j.contains("deformation"))
-    b.deformation_resolution = read_deformation(r, j["deformation"], child(field, "deformation"));
+    read_deformation(r, j["deformation"], child(field, "deformation"), b);
   return b;
 }
 
@@ -280,7 +297,10 @@ std::uint64_t implicit_bytes(const BoxSpec& b) {
   return distance_grid_bytes(b);
 }
 
+// An automatic layout takes at most its budget.
 std::uint64_t deformation_bytes(const BoxSpec& b) {
+  if (b.deformation_resolution == kAutoResolution)
+    return static_cast<std::uint64_t>(b.deformation_max_mib * double(1 << 20));
   std::uint64_t d = b.deformation_resolution;
   return d * d * d * 4 * sizeof(float);
 }
@@ -288,6 +308,8 @@ std::uint64_t deformation_bytes(const BoxSpec& b) {
 // The alpha map A of a cut: at most resolution^3 texels of 1 float, like D.
 std::uint64_t alpha_bytes(const BoxSpec& b) {
   if (!is_cut(b.deformer)) return 0;
+  if (b.alpha_resolution == kAutoResolution)
+    return static_cast<std::uint64_t>(b.alpha_max_mib * double(1 << 20));
   std::uint64_t a = b.alpha_resolution;
   return a * a * a * sizeof(float);
 }
@@ -303,12 +325,12 @@ void check_memory_budget(const JsonReader& r, const std::vector<BoxSpec>& specs)
   // The field to lower: the resolution with the largest texture.
   std::uint64_t largest = 0;
   std::string field;
-  int value = 0;
-  auto consider = [&](std::uint64_t bytes, std::string name, int resolution) {
+  json value;
+  auto consider = [&](std::uint64_t bytes, std::string name, json setting) {
     if (bytes <= largest) return;
     largest = bytes;
     field = std::move(name);
-    value = resolution;
+    value = std::move(setting);
   };
   bool cuts = false;
   for (size_t i = 0; i < specs.size(); ++i) {
@@ -319,8 +341,14 @@ void check_memory_budget(const JsonReader& r, const std::vector<BoxSpec>& specs)
     alphas += a;
     cuts = cuts || is_cut(specs[i].deformer);
     consider(g, element("boxes", i) + ".implicit.resolution", specs[i].implicit.resolution);
-    consider(t, element("boxes", i) + ".deformation.resolution", specs[i].deformation_resolution);
-    consider(a, element("boxes", i) + ".alpha.resolution", specs[i].alpha_resolution);
+    if (specs[i].deformation_resolution == kAutoResolution)
+      consider(t, element("boxes", i) + ".deformation.max_mib", specs[i].deformation_max_mib);
+    else
+      consider(t, element("boxes", i) + ".deformation.resolution", specs[i].deformation_resolution);
+    if (specs[i].alpha_resolution == kAutoResolution)
+      consider(a, element("boxes", i) + ".alpha.max_mib", specs[i].alpha_max_mib);
+    else
+      consider(a, element("boxes", i) + ".alpha.resolution", specs[i].alpha_resolution);
   }
   std::uint64_t total = grids + textures + alphas;
   if (total <= kMemoryBudgetBytes) return;
@@ -329,7 +357,7 @@ void check_memory_budget(const JsonReader& r, const std::vector<BoxSpec>& specs)
              gib(grids) + ", deformation textures " + gib(textures) +
              (cuts ? ", alpha maps " + gib(alphas) : std::string()) +
              "), more than the budget of " + gib(kMemoryBudgetBytes) +
-             "; lower this resolution (the largest of them)");
+             "; lower this setting (the largest of them)");
 }
 
 std::vector<BoxSpec> read_boxes(const JsonReader& r, const json& j) {

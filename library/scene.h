@@ -25,6 +25,17 @@ struct ImplicitSpec {
   double margin_voxels = 2.0;  // grid margin around the box, [0, 64] (sdf only)
 };
 
+// "resolution": "auto" of the deformation texture and the alpha map.
+constexpr int kAutoResolution = 0;
+// The automatic layouts start from, and never go below, the cubic layout of this many texels
+// along the longest side (the fixed default before layouts were automatic).
+constexpr int kAutoFloorResolution = 96;
+// The error they aim at: this many voxels of the implicit (distance grid or depth maps).
+constexpr double kAutoErrorVoxels = 0.5;
+// The alpha map's floor, and the band around the cut face (implicit voxels) where its error counts.
+constexpr int kAutoAlphaFloorResolution = 64;
+constexpr double kAlphaBandVoxels = 2.0;
+
 struct BoxSpec {
   Box box;
   // The box's deformers in the order they apply: `deformer` first, then each of `then` (the
@@ -33,11 +44,21 @@ struct BoxSpec {
   DeformerSpec deformer;
   std::vector<DeformerSpec> then;
   ImplicitSpec implicit;
-  int deformation_resolution = 96;  // texels of D along the longest side of F(box), [4, 1024]
+  // Texels of D along the longest side of F(box), [4, 1024] (cubic texels), or kAutoResolution
+  // ("auto", the default): counts per axis chosen so that D's interpolation error is at most
+  // kAutoErrorVoxels voxels of the implicit, from the cubic layout of kAutoFloorResolution up,
+  // within deformation_max_mib (library/deformation_bake.h, bake_deformation_auto).
+  int deformation_resolution = kAutoResolution;
+  double deformation_max_mib = 64;  // the automatic layout's budget, MiB, [1, 1024]
   // Cuts only (peel, incision, box_cut):
   CutMode cut_mode = CutMode::Solid;
   double shell_thickness = 0;  // thick_shell: tau in object units, > 0 (required for it)
-  int alpha_resolution = 64;   // texels of A along the longest side, [4, 1024]
+  // Texels of A along the longest side, [4, 1024], or kAutoResolution ("auto", the default):
+  // counts per axis for an error of at most kAutoErrorVoxels where A places the cut face (within
+  // kAlphaBandVoxels of it), from the cubic layout of kAutoAlphaFloorResolution up, within
+  // alpha_max_mib (bake_alpha_auto).
+  int alpha_resolution = kAutoResolution;
+  double alpha_max_mib = 16;  // [1, 1024]
 };
 
 // The step of linear and jacobian sampling when the scene gives none, voxels.

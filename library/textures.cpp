@@ -20,7 +20,7 @@ const char* cut_mode_name(CutMode mode) {
 }
 
 double implicit_spacing(const BoxTextures& b) {
-  return b.uses_depth_cube ? b.depth_cube.spacing : b.sdf.grid.spacing;
+  return b.uses_depth_cube ? b.depth_cube.spacing : b.sdf.grid.voxel();
 }
 
 double implicit_background(const BoxTextures& b) {
@@ -38,7 +38,8 @@ Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b) {
 
 double cut_margin(const BoxTextures& b) {
   if (!b.has_cut) return 0.0;
-  return std::sqrt(3.0) * (b.alpha.grid.spacing + 0.5 * b.deformation.grid.spacing);
+  // The diagonal of an alpha cell plus half that of a D cell.
+  return b.alpha.grid.spacing.norm() + 0.5 * b.deformation.grid.spacing.norm();
 }
 
 float round_to_half(float x) {
@@ -69,7 +70,7 @@ bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested) {
   if (!requested) return false;
   if (b.has_cut) return true;
   if (b.uses_depth_cube) return false;
-  return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.spacing;
+  return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.voxel();
 }
 
 namespace {
@@ -115,8 +116,9 @@ double cell_slope(const Grid3<float>& grid, int i, int j, int k) {
     largest[a] = std::max(largest[a], std::abs(double(grid.at(hi[0], hi[1], hi[2])) -
                                                double(grid.at(lo[0], lo[1], lo[2]))));
   });
-  const double sum = largest[0] * largest[0] + largest[1] * largest[1] + largest[2] * largest[2];
-  return std::sqrt(sum) / grid.spacing * kBoundMargin;
+  const Eigen::Vector3d slope =
+      Eigen::Vector3d(largest[0], largest[1], largest[2]).cwiseQuotient(grid.spacing);
+  return slope.norm() * kBoundMargin;
 }
 
 // Bricks of `cells_per_brick`^3 cells over a grid of `dims` texels: the grid of their bounds
@@ -145,8 +147,7 @@ Grid3<float> brick_maxima(const Grid& grid, int cells_per_brick, F&& per_cell,
                           Interrupter* interrupter) {
   const Eigen::Vector3i cells = (grid.dims.array() - 1).max(1);
   const Eigen::Vector3i nb = (cells.array() + cells_per_brick - 1) / cells_per_brick;
-  Grid3<float> raw(grid.origin + Eigen::Vector3d::Constant(0.5 * grid.spacing),
-                   grid.spacing * cells_per_brick, nb, 0.0f);
+  Grid3<float> raw(grid.origin + 0.5 * grid.spacing, grid.spacing * cells_per_brick, nb, 0.0f);
   CellPoller poll(interrupter, "step bounds", grid.dims);
   for_each_cell(grid.dims, [&](int i, int j, int k) {
     poll();
@@ -216,7 +217,7 @@ StepBounds bake_step_bounds(const DistanceGrid& sdf, const DeformationTexture& d
       // On an axis of one texel lo = hi: D has no slope along it.
       edges[a][e] = (d.at(hi[0], hi[1], hi[2]).head<3>().cast<double>() -
                      d.at(lo[0], lo[1], lo[2]).head<3>().cast<double>()) /
-                    d.spacing;
+                    d.spacing[a];
       m.col(a) += 0.25 * edges[a][e];
     });
     double deviation = 0.0;
@@ -245,7 +246,7 @@ float brick_at(const Grid3<float>& bricks, const Eigen::Vector3d& p) {
   Eigen::Vector3i b;
   for (int a = 0; a < 3; ++a)
     b[a] = std::clamp(static_cast<int>(std::floor(
-                          std::clamp((p[a] - bricks.origin[a]) / bricks.spacing, -1.0, 1e9))),
+                          std::clamp((p[a] - bricks.origin[a]) / bricks.spacing[a], -1.0, 1e9))),
                       0, bricks.dims[a] - 1);
   return bricks.at(b.x(), b.y(), b.z());
 }
@@ -257,7 +258,7 @@ StepBound step_bound_at(const StepBounds& bounds, const Eigen::Vector3d& p_def,
   const double l_d = brick_at(bounds.bricks, p_def);
   StepBound out;
   out.lipschitz = brick_at(bounds.sdf_bricks, p) * l_d;
-  out.longest = std::min(bounds.bricks.spacing, bounds.sdf_bricks.spacing / l_d);
+  out.longest = std::min(bounds.bricks.voxel(), bounds.sdf_bricks.voxel() / l_d);
   return out;
 }
 

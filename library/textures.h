@@ -64,9 +64,9 @@ constexpr double kCapVoxels = 2.0;
 // of D: g > 0 exactly where the linear search counts a sample as inside (valid and f > 0).
 // From p' (preimage p), along any segment of length s <= min(B_D, B_f / L_D(p')),
 //   |g(x) - g(y)| <= L_f(p) * L_D(p') * |x - y|,
-// where L_D(p') >= 1 bounds ||I + J_D|| over the brick of D holding p' and its 26 neighbours (side
-// B_D), and L_f(p) >= 1 bounds |grad f| over the brick of the distance grid holding p and its
-// neighbours (side B_f): p moves at most L_D s <= B_f, so it stays in those bricks, and the
+// where L_D(p') >= 1 bounds ||I + J_D|| over the brick of D holding p' and its 26 neighbours (B_D
+// its shortest side), and L_f(p) >= 1 bounds |grad f| over the brick of the distance grid holding p
+// and its neighbours (side B_f): p moves at most L_D s <= B_f, so it stays in those bricks, and the
 // other two terms of g are at most L_D- and 1-Lipschitz. A step of |g| / (L_f L_D), no longer
 // than that, therefore never passes a point where g > 0.
 struct StepBounds {

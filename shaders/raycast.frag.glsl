@@ -44,7 +44,7 @@ uniform float u_seam;             // tolerance at box faces, object units
 uniform sampler3D u_deformation;  // xyz: D(p') (p = p' + D), w: validity
 uniform vec3 u_def_origin;
 uniform vec3 u_def_size;
-uniform float u_def_spacing;
+uniform vec3 u_def_spacing;       // texel sides per axis
 #endif
 #ifdef RAYWARP_TEXTURE_MAP
 uniform mat4 u_texture_map;       // M of eq. 2: D is read at M p'
@@ -53,7 +53,7 @@ uniform mat4 u_texture_map;       // M of eq. 2: D is read at M p'
 uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance to its boundary
 uniform vec3 u_alpha_origin;
 uniform vec3 u_alpha_size;
-uniform float u_alpha_spacing;
+uniform vec3 u_alpha_spacing;
 uniform vec3 u_cut_colour;
 #endif
 #ifdef RAYWARP_CUT_THICK
@@ -66,7 +66,7 @@ uniform float u_fine_factor;
 #ifdef RAYWARP_SAMPLING_BOUNDED
 uniform sampler3D u_bricks;       // per brick of D: bound of |I + J_D| there and around (NEAREST)
 uniform vec3 u_brick_origin;      // D's first texel centre
-uniform float u_brick_spacing;    // brick side, object units
+uniform vec3 u_brick_spacing;     // brick sides per axis, object units
 uniform sampler3D u_sdf_bricks;   // per brick of the distance grid: bound of |grad f| (NEAREST)
 uniform vec3 u_sdf_brick_origin;  // the grid's first texel centre
 uniform float u_sdf_brick_spacing;
@@ -200,7 +200,7 @@ float skip_distance(Sample s) {
 // Eq. 4: dt = ds / |(I + J_D) v|, the step whose preimage moves by ds; J_D by central
 // differences of D. Clamped to [ds / 16, 4 ds] so that every ray stays bounded.
 float jacobian_step(vec3 p_def, vec3 v) {
-  float h = u_def_spacing;
+  float h = min(min(u_def_spacing.x, u_def_spacing.y), u_def_spacing.z);
   vec3 jv = (deformation(p_def + h * v).xyz - deformation(p_def - h * v).xyz) / (2.0 * h);
   return u_step / clamp(length(v + jv), 0.25, 16.0);
 }
@@ -218,7 +218,7 @@ float bounded_g(vec3 p_def, out vec3 p) {
   return g;
 }
 
-float brick_at(sampler3D bricks, vec3 origin, float spacing, vec3 q) {
+float brick_at(sampler3D bricks, vec3 origin, vec3 spacing, vec3 q) {
   ivec3 b = clamp(ivec3(floor(clamp((q - origin) / spacing, -1.0, 1e9))), ivec3(0),
                   textureSize(bricks, 0) - 1);
   return texelFetch(bricks, b, 0).r;
@@ -228,8 +228,9 @@ float brick_at(sampler3D bricks, vec3 origin, float spacing, vec3 q) {
 // most min(B_D, B_f / L_D) so that the bounds' bricks hold it.
 float bounded_step(vec3 p_def, vec3 p, float g) {
   float l_d = brick_at(u_bricks, u_brick_origin, u_brick_spacing, p_def);
-  float l_f = brick_at(u_sdf_bricks, u_sdf_brick_origin, u_sdf_brick_spacing, p);
-  return min(-g / (l_f * l_d), min(u_brick_spacing, u_sdf_brick_spacing / l_d));
+  float l_f = brick_at(u_sdf_bricks, u_sdf_brick_origin, vec3(u_sdf_brick_spacing), p);
+  float b_d = min(min(u_brick_spacing.x, u_brick_spacing.y), u_brick_spacing.z);
+  return min(-g / (l_f * l_d), min(b_d, u_sdf_brick_spacing / l_d));
 }
 #endif
 
@@ -247,11 +248,11 @@ vec3 deformed_normal(vec3 p_def) {
   return -gradient_f(p_def);
 #else
   vec3 p = p_def + deformation(p_def).xyz;
-  float hd = u_def_spacing;
+  vec3 hd = u_def_spacing;
   mat3 jd;  // columns: dD/dx, dD/dy, dD/dz
-  jd[0] = (deformation(p_def + vec3(hd, 0, 0)).xyz - deformation(p_def - vec3(hd, 0, 0)).xyz) / (2.0 * hd);
-  jd[1] = (deformation(p_def + vec3(0, hd, 0)).xyz - deformation(p_def - vec3(0, hd, 0)).xyz) / (2.0 * hd);
-  jd[2] = (deformation(p_def + vec3(0, 0, hd)).xyz - deformation(p_def - vec3(0, 0, hd)).xyz) / (2.0 * hd);
+  jd[0] = (deformation(p_def + vec3(hd.x, 0, 0)).xyz - deformation(p_def - vec3(hd.x, 0, 0)).xyz) / (2.0 * hd.x);
+  jd[1] = (deformation(p_def + vec3(0, hd.y, 0)).xyz - deformation(p_def - vec3(0, hd.y, 0)).xyz) / (2.0 * hd.y);
+  jd[2] = (deformation(p_def + vec3(0, 0, hd.z)).xyz - deformation(p_def - vec3(0, 0, hd.z)).xyz) / (2.0 * hd.z);
   return transpose(mat3(1.0) + jd) * (-gradient_f(p));
 #endif
 }
@@ -259,10 +260,10 @@ vec3 deformed_normal(vec3 p_def) {
 #ifdef RAYWARP_CUT
 // The cut face's outward normal (into the cut): grad A (eq. 6).
 vec3 alpha_gradient(vec3 p_def) {
-  float h = u_alpha_spacing;
-  return vec3(alpha_at(p_def + vec3(h, 0, 0)) - alpha_at(p_def - vec3(h, 0, 0)),
-              alpha_at(p_def + vec3(0, h, 0)) - alpha_at(p_def - vec3(0, h, 0)),
-              alpha_at(p_def + vec3(0, 0, h)) - alpha_at(p_def - vec3(0, 0, h)));
+  vec3 h = u_alpha_spacing;
+  return vec3(alpha_at(p_def + vec3(h.x, 0, 0)) - alpha_at(p_def - vec3(h.x, 0, 0)),
+              alpha_at(p_def + vec3(0, h.y, 0)) - alpha_at(p_def - vec3(0, h.y, 0)),
+              alpha_at(p_def + vec3(0, 0, h.z)) - alpha_at(p_def - vec3(0, 0, h.z))) / (2.0 * h);
 }
 #endif
 

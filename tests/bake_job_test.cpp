@@ -66,11 +66,18 @@ TEST(BakeJob, BakesOneBoxAndReportsEveryFigure) {
   EXPECT_EQ(sdf->resolution, box.textures.sdf.grid.dims);
   EXPECT_EQ(sdf->bytes, box.textures.sdf.grid.size() * 4);
   EXPECT_GT(sdf->seconds, 0.0);
-  EXPECT_DOUBLE_EQ(sdf->spacing, box.textures.sdf.grid.spacing);
+  EXPECT_EQ(sdf->spacing, box.textures.sdf.grid.spacing);
   EXPECT_EQ(def->resolution, box.textures.deformation.grid.dims);
-  EXPECT_EQ(def->resolution.maxCoeff(), scene.boxes[0].deformation_resolution);
+  // The automatic layout: at least the cubic floor's texels, an error within its target.
+  EXPECT_EQ(scene.boxes[0].deformation_resolution, kAutoResolution);
+  EXPECT_GE(def->resolution.maxCoeff(), kAutoFloorResolution);
+  EXPECT_TRUE(r.deformation_choice.automatic);
+  EXPECT_GE(r.deformation_choice.bakes, 1);
+  EXPECT_DOUBLE_EQ(r.deformation_choice.target, kAutoErrorVoxels * r.voxel);
+  EXPECT_LE(r.texture_error, r.deformation_choice.target);
+  EXPECT_LE(def->bytes, r.deformation_choice.budget_bytes);
   EXPECT_EQ(def->bytes, box.textures.deformation.grid.size() * 16);
-  EXPECT_DOUBLE_EQ(r.voxel, sdf->spacing);
+  EXPECT_DOUBLE_EQ(r.voxel, sdf->spacing.x());
   EXPECT_GT(r.active_voxels, 1000);
   EXPECT_FALSE(r.sign_method.empty());
   EXPECT_GT(r.lipschitz, 1.0);
@@ -246,7 +253,20 @@ TEST(BakeJob, CutReportsItsAlphaStageAndWarningsAreCoded) {
   const StageReport* alpha = box.report.stage(Stage::Alpha);
   ASSERT_NE(alpha, nullptr);
   EXPECT_EQ(alpha->resolution, box.textures.alpha.grid.dims);
-  EXPECT_EQ(alpha->resolution.maxCoeff(), scene.boxes[0].alpha_resolution);
+  // The automatic layout: from the cubic floor up, within its target and budget.
+  const BakeReport& r = box.report;
+  EXPECT_GE(alpha->resolution.maxCoeff(), kAutoAlphaFloorResolution);
+  EXPECT_TRUE(r.alpha_choice.automatic);
+  EXPECT_LE(r.alpha_error, r.alpha_choice.target);
+  EXPECT_DOUBLE_EQ(r.alpha_choice.target, kAutoErrorVoxels * r.voxel);
+  EXPECT_LE(alpha->bytes, r.alpha_choice.budget_bytes);
+  // An explicit resolution wins, and its error is measured too.
+  Scene fixed = scene;
+  fixed.boxes[0].alpha_resolution = 64;
+  const BakedBox f = session.bake(make_job(fixed, 0, session.mesh(scene.mesh)));
+  EXPECT_EQ(f.report.stage(Stage::Alpha)->resolution.maxCoeff(), 64);
+  EXPECT_FALSE(f.report.alpha_choice.automatic);
+  EXPECT_GT(f.report.alpha_error, 0.0);
   for (const BakeWarning& w : box.report.warnings) {
     EXPECT_FALSE(w.code.empty());
     EXPECT_FALSE(w.message.empty());

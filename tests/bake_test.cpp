@@ -36,10 +36,12 @@
 #include <numbers>
 #include <random>
 
+#include "base/error.h"
 #include "deformers/bend.h"
 #include "deformers/deformer.h"
 #include "deformers/twist.h"
 #include "library/deformation_bake.h"
+#include "library/scene.h"
 
 namespace raywarp {
 namespace {
@@ -56,7 +58,8 @@ Eigen::Vector3d random_point(std::mt19937_64& rng, const Eigen::Vector3d& h) {
 // Whether the trilinear stencil of p' and one texel around it (4x4x4 texels) exist and all have
 // w = 1.
 bool well_inside(const Grid3<Eigen::Vector4f>& grid, const Eigen::Vector3d& p_def) {
-  const Eigen::Vector3d u = (p_def - grid.origin) / grid.spacing - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3d u =
+      (p_def - grid.origin).cwiseQuotient(grid.spacing) - Eigen::Vector3d::Constant(0.5);
   Eigen::Vector3i base;
   for (int a = 0; a < 3; ++a) {
     base[a] = static_cast<int>(std::floor(u[a]));
@@ -86,7 +89,7 @@ double worst_error_ratio(const Deformer& deformer, const Eigen::Vector3d& h,
   }
   std::printf(
       "%s: texel %.4g, %d points; max error (%.3g, %.3g, %.3g) <= bound (%.3g, %.3g, %.3g)\n",
-      deformer.describe().c_str(), texture.grid.spacing, used, worst.x(), worst.y(), worst.z(),
+      deformer.describe().c_str(), texture.grid.voxel(), used, worst.x(), worst.y(), worst.z(),
       bound.x(), bound.y(), bound.z());
   EXPECT_GT(used, 5000) << deformer.describe();
   return worst.cwiseQuotient(bound).maxCoeff();
@@ -103,7 +106,7 @@ TEST(Bake, TwistWithinInterpolationBound) {
     const auto twist = make_twist(c.h, c.axis, c.angle_deg);
     const DeformationTexture texture = bake_deformation(*twist, c.h, 64);
     const int a = static_cast<int>(c.axis);
-    const double s = texture.grid.spacing;
+    const double s = texture.grid.voxel();
     const double g = c.angle_deg * kDeg / (2.0 * c.h[a]);
     const double r_max = std::hypot(c.h[(a + 1) % 3], c.h[(a + 2) % 3]);
     const double slack = kFloatRounding * 2.0 * r_max + 1e-14;  // |D| <= 2 r for a rotation
@@ -125,7 +128,7 @@ TEST(Bake, BendWithinInterpolationBound) {
         Case{{0.2, 0.5, 0.6}, Axis::Y, 180.0, 2, 0}}) {
     const auto bend = make_bend(c.h, c.axis, c.angle_deg);
     const DeformationTexture texture = bake_deformation(*bend, c.h, 64);
-    const double s = texture.grid.spacing;
+    const double s = texture.grid.voxel();
     const double k = std::abs(c.angle_deg * kDeg / (2.0 * c.h[c.a]));
     const double rho_lo = 1.0 / k - c.h[c.b] - s / std::sqrt(2.0);
     ASSERT_GT(rho_lo, 0.0) << "the case must not fold";
@@ -166,7 +169,7 @@ TEST(Bake, ExtremeCasesAreFiniteAndFlagged) {
     EXPECT_EQ(grid.sample(grid.origin - grid.extent()).w(), 0.0) << deformer.describe();
     for (int n = 0; n < 2000; ++n) {
       const Eigen::Vector3d p_def = deformer.forward(random_point(rng, c.h));
-      const Eigen::Vector3d margin = Eigen::Vector3d::Constant(0.5 * grid.spacing);
+      const Eigen::Vector3d margin = 0.5 * grid.spacing;
       EXPECT_TRUE(((p_def - grid.origin).array() >= margin.array()).all() &&
                   ((grid.upper() - p_def).array() >= margin.array()).all())
           << deformer.describe() << ": F(p) = " << p_def.transpose() << " is not covered";
@@ -222,6 +225,98 @@ TEST(Bake, GridIsResolutionTexelsAlongTheLongestSide) {
   const DeformationTexture texture = bake_deformation(*twist, h, 40);
   EXPECT_EQ(texture.grid.dims.maxCoeff(), 40);
   EXPECT_EQ(texture.grid.size(), static_cast<size_t>(texture.grid.dims.prod()));
+}
+
+TEST(Bake, CountsPerAxisPadOneTexelEachSide) {
+  const Eigen::Vector3d h(0.5, 0.8, 0.35);
+  const auto twist = make_twist(h, Axis::Y, 90.0);
+  const Eigen::Vector3i counts(20, 7, 33);
+  const DeformationTexture texture = bake_deformation(*twist, h, counts, false);
+  EXPECT_EQ(texture.grid.dims, counts);
+  const Eigen::AlignedBox3d bounds = deformed_bounds(*twist, h);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(texture.grid.spacing[a], bounds.sizes()[a] / (counts[a] - 2), 1e-12);
+    EXPECT_NEAR(texture.grid.origin[a], bounds.min()[a] - texture.grid.spacing[a], 1e-12);
+    EXPECT_NEAR(texture.grid.upper()[a], bounds.max()[a] + texture.grid.spacing[a], 1e-12);
+  }
+  EXPECT_THROW(bake_deformation(*twist, h, Eigen::Vector3i(2, 8, 8), false), Error);
+}
+
+TEST(Bake, CountsForErrorShareTheTargetAmongTheAxesAboveTheirFloor) {
+  // Only x errs: it alone is refined, by sqrt(4) for a quarter of the error.
+  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.4, 0, 0}, 0.1, {10, 10, 10}),
+            Eigen::Vector3i(20, 10, 10));
+  // Two equal errors: each takes half the target.
+  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.4, 0.4, 0}, 0.1, {10, 10, 10}),
+            Eigen::Vector3i(29, 29, 10));
+  // Already within: the floor.
+  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.01, 0.01, 0.01}, 0.1, {10, 10, 10}),
+            Eigen::Vector3i(10, 10, 10));
+  const Eigen::Vector3i n = counts_for_error({10, 10, 10}, {0.3, 0.2, 0.1}, 0.05, {4, 4, 4});
+  double sum = 0;
+  for (int a = 0; a < 3; ++a) sum += (a == 0 ? 0.3 : a == 1 ? 0.2 : 0.1) * 100.0 / (n[a] * n[a]);
+  EXPECT_LE(sum, 0.05);
+  EXPECT_GT(sum, 0.04);  // not wastefully fine
+}
+
+// A twist interpolates exactly across its axis (a rotation is linear in x, z at each y): its
+// error lies along the axis, which the per-axis estimate sees and the automatic layout refines
+// alone.
+TEST(Bake, AutoLayoutRefinesOnlyTheAxisThatErrs) {
+  const Eigen::Vector3d h(1.0, 0.2, 1.0);  // a slab: 720 degrees over 0.4
+  const auto twist = make_twist(h, Axis::Y, 720.0);
+  const double voxel = 2.0 / 128, target = kAutoErrorVoxels * voxel;
+  const DeformationTexture fixed = bake_deformation(*twist, h, kAutoFloorResolution);
+  const double fixed_error = deformation_texture_error(*twist, fixed);
+  ASSERT_GT(fixed_error, 4 * target) << "the case must need the refinement";
+  const Eigen::Vector3d per_axis = axis_interpolation_errors(*twist, fixed);
+  EXPECT_LT(per_axis.x(), 1e-3 * per_axis.y());
+  EXPECT_LT(per_axis.z(), 1e-3 * per_axis.y());
+  EXPECT_GT(per_axis.sum(), 0.5 * fixed_error);
+  EXPECT_LT(per_axis.sum(), 2.0 * fixed_error);
+
+  const AutoDeformation a = bake_deformation_auto(*twist, h, target, std::uint64_t(64) << 20,
+                                                  kAutoFloorResolution, false);
+  std::printf(
+      "720 degrees over 0.4: fixed %dx%dx%d, error %.3g; auto %dx%dx%d, error %.3g "
+      "(target %.3g), %d bakes, %.2f s\n",
+      fixed.grid.dims.x(), fixed.grid.dims.y(), fixed.grid.dims.z(), fixed_error,
+      a.texture.grid.dims.x(), a.texture.grid.dims.y(), a.texture.grid.dims.z(), a.error, target,
+      a.choice.bakes, a.texture.bake_seconds);
+  EXPECT_LE(a.error, target);
+  EXPECT_NEAR(a.error, deformation_texture_error(*twist, a.texture), 1e-15);
+  EXPECT_FALSE(a.choice.budget_bound);
+  EXPECT_EQ(a.texture.grid.dims.x(), fixed.grid.dims.x());
+  EXPECT_EQ(a.texture.grid.dims.z(), fixed.grid.dims.z());
+  EXPECT_GT(a.texture.grid.dims.y(), 3 * fixed.grid.dims.y());
+  EXPECT_LE(a.texture.grid.size() * 16, std::uint64_t(16) << 20);
+}
+
+TEST(Bake, AutoLayoutKeepsTheFloorWhenItSuffices) {
+  const Eigen::Vector3d h(0.5, 0.8, 0.35);
+  const auto bend = make_bend(h, Axis::Y, 30.0);
+  const AutoDeformation a =
+      bake_deformation_auto(*bend, h, 0.01, std::uint64_t(64) << 20, kAutoFloorResolution, false);
+  const DeformationTexture fixed = bake_deformation(*bend, h, kAutoFloorResolution);
+  EXPECT_EQ(a.choice.bakes, 1);
+  EXPECT_EQ(a.texture.grid.dims, fixed.grid.dims);
+  EXPECT_EQ(a.texture.grid.spacing, fixed.grid.spacing);
+  EXPECT_EQ(a.texture.grid.data, fixed.grid.data);
+}
+
+TEST(Bake, AutoLayoutStaysWithinItsBudget) {
+  const Eigen::Vector3d h(1.0, 0.2, 1.0);
+  const auto twist = make_twist(h, Axis::Y, 720.0);
+  const std::uint64_t budget = std::uint64_t(1) << 20;
+  const AutoDeformation a =
+      bake_deformation_auto(*twist, h, 1e-4, budget, kAutoFloorResolution, false);
+  EXPECT_TRUE(a.choice.budget_bound);
+  EXPECT_LE(a.texture.grid.size() * 16, budget);
+  EXPECT_GT(a.error, 1e-4);  // and says so: the error is measured, not the target's
+  // With the lower-face shift the grown grid still fits.
+  const AutoDeformation c =
+      bake_deformation_auto(*twist, h, 1e-4, budget, kAutoFloorResolution, true);
+  EXPECT_LE(c.texture.grid.size() * 16, budget);
 }
 
 // Not a check: the bake times the report quotes (96 texels along the longest side).

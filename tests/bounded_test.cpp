@@ -137,7 +137,7 @@ TEST(InterpolantLipschitz, BoundsRandomPairs) {
         g.origin + g.extent().cwiseProduct(0.5 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) +
                                            Eigen::Vector3d::Constant(0.5));
     const Eigen::Vector3d y =
-        x + 0.3 * g.spacing * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+        x + 0.3 * g.voxel() * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
     worst = std::max(worst, std::abs(g.sample(x).value() - g.sample(y).value()) / (x - y).norm());
   }
   std::printf("[figures] distance grid: largest measured slope %.4f, bound %.4f\n", worst, bound);
@@ -168,8 +168,9 @@ TEST(StepBounds, BoundTheSlopeOfGInEveryBrickNeighbourhood) {
       // moves at most L_D s.
       Eigen::Vector3i b;
       for (int a = 0; a < 3; ++a)
-        b[a] = std::clamp(static_cast<int>(std::floor((x[a] - bricks.origin[a]) / bricks.spacing)),
-                          0, bricks.dims[a] - 1);
+        b[a] =
+            std::clamp(static_cast<int>(std::floor((x[a] - bricks.origin[a]) / bricks.spacing[a])),
+                       0, bricks.dims[a] - 1);
       const Eigen::Vector3d moved = (y + d.sample(y).head<3>()) - (x + d.sample(x).head<3>());
       worst_d = std::max(worst_d, moved.norm() / s / bricks.at(b.x(), b.y(), b.z()));
     }
@@ -194,7 +195,7 @@ TEST(Bounded, MissesNoHitOfADenseMarchOnThinShells) {
        near_misses = 0;
   for (int n = 0; n < 6; ++n) {
     Case c = random_case(rng, n);
-    const double fine = c.tex.sdf.grid.spacing / 64.0;
+    const double fine = c.tex.sdf.grid.voxel() / 64.0;
     long case_hits = 0, case_linear_misses = 0;
     for (int i = 0; i < 150; ++i) {
       // From a random point around the box towards a random point of its middle.

@@ -147,7 +147,7 @@ void check_against_truth(const std::string& scene_file, const std::string& name)
   for (const auto& b : prepared.boxes) {
     auto F = [&](const Eigen::Vector3d& p) { return b.deformer->forward(p); };
     truth_mesh =
-        ground_truth_mesh(truth_mesh, b.textures.box, F, 0.25 * b.textures.sdf.grid.spacing);
+        ground_truth_mesh(truth_mesh, b.textures.box, F, 0.25 * b.textures.sdf.grid.voxel());
   }
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();

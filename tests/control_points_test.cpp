@@ -464,7 +464,7 @@ BoxTextures box_textures(const BunnyScene& s, const Deformer& deformer) {
   BoxTextures tex;
   tex.box = spec.box;
   tex.sdf = s.sdf;
-  tex.deformation = bake_deformation(deformer, spec.box.half_extents, spec.deformation_resolution);
+  tex.deformation = bake_deformation(deformer, spec.box.half_extents, kAutoFloorResolution);
   tex.region = Eigen::AlignedBox3d(tex.deformation.grid.origin, tex.deformation.grid.upper());
   tex.lipschitz = displacement_lipschitz(deformer, tex.deformation);
   if (s.scene.render.texture_bits == 16) round_textures_to_half(tex);
@@ -501,7 +501,7 @@ TEST(ControlPoints, RendersATwistLikeTheTwist) {
   renderer.set_boxes({twist_tex});
   const Image twist_image = renderer.render(s.camera, kSize, kSize, s.scene.render, &stats);
 
-  const double quarter_voxel = 0.25 * s.sdf.grid.spacing;
+  const double quarter_voxel = 0.25 * s.sdf.grid.voxel();
   const Mesh truth_mesh = ground_truth_mesh(
       s.mesh, box, [&](const Eigen::Vector3d& p) { return twist->forward(p); }, quarter_voxel);
   const Image truth = rasterize(truth_mesh, s.camera, kSize, kSize, s.scene.render);

@@ -148,7 +148,7 @@ TEST_P(IncisionTest, HollowMatchesSplitGroundTruth) {
   auto F = [&](const Eigen::Vector3d& q) { return box.deformer->forward(q); };
   const int cut_axis = p.scene.boxes[0].deformer.axis;
   Mesh truth_mesh = ground_truth_mesh(p.prepared.mesh(), box.textures.box, F,
-                                      0.25 * box.textures.sdf.grid.spacing, cut_axis);
+                                      0.25 * box.textures.sdf.grid.voxel(), cut_axis);
   Image truth = rasterize(truth_mesh, cam, kSize, kSize, p.scene.render);
   Image cpu =
       reference_render(p.prepared.mesh(), p.prepared.textures(), cam, kSize, kSize, p.scene.render);

@@ -56,7 +56,7 @@ TEST_P(ExtremeTest, FiniteEverywhereAndMeasured) {
   if (!box.deformer->has_cut()) {
     auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
     Mesh truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F,
-                                        0.5 * box.textures.sdf.grid.spacing);
+                                        0.5 * box.textures.sdf.grid.voxel());
     Image truth = rasterize(truth_mesh, *scene.camera, kSize, kSize, scene.render);
     ImageComparison c = compare_images(gl, truth, 0.01 * mesh_bounds(truth_mesh).diagonal().norm());
     char buf[160];

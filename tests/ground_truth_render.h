@@ -63,7 +63,7 @@ inline GroundTruthRun render_against_ground_truth(const std::string& scene_file,
   renderer.set_boxes(run.prepared.textures());
   run.gl_image = renderer.render(run.camera, size, size, run.scene.render, &run.stats);
 
-  const double quarter_voxel = 0.25 * box.textures.sdf.grid.spacing;
+  const double quarter_voxel = 0.25 * box.textures.sdf.grid.voxel();
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   const Mesh truth_mesh =
       ground_truth_mesh(run.prepared.mesh(), box.textures.box, F, quarter_voxel);

@@ -122,7 +122,7 @@ TEST(Implicit, GridCoversTheBoxPlusMargin) {
   }();
   const DistanceGrid sdf = bake_distance_grid(fixtures::cube(0.2), box, spec_with(32, 3, 2));
   // 32 voxels along the longest side (2 units), 2 voxels of margin on every side.
-  EXPECT_DOUBLE_EQ(sdf.grid.spacing, 2.0 / 32);
+  EXPECT_DOUBLE_EQ(sdf.grid.voxel(), 2.0 / 32);
   EXPECT_EQ(sdf.grid.dims, Eigen::Vector3i(36, 20, 12));
   EXPECT_TRUE(sdf.grid.origin.isApprox(-0.5 * sdf.grid.extent()));
   EXPECT_FLOAT_EQ(sdf.background, 3 * 2.0 / 32);
@@ -169,7 +169,7 @@ TEST(Implicit, RotatedBoxReadsTheMeshInItsLocalFrame) {
   const Mesh sphere = fixtures::icosphere(r, 4, c);
   const double sag = fixtures::max_sagitta(sphere, r);
   const DistanceGrid sdf = bake_distance_grid(sphere, box, spec_with(32));
-  EXPECT_DOUBLE_EQ(sdf.grid.spacing, 2 * 0.9 / 32);
+  EXPECT_DOUBLE_EQ(sdf.grid.voxel(), 2 * 0.9 / 32);
   expect_signed_distance(
       sdf, box, [&](const Eigen::Vector3d& p) { return r - (p - c).norm(); }, sag, 0, 1e-5);
 }
@@ -223,7 +223,7 @@ TEST(Implicit, OpenMeshKeepsItsInsidePositive) {
   const Box box = cube_box(1.25);
   const DistanceGrid a = bake_distance_grid(closed, box, spec_with(32));
   const DistanceGrid b = bake_distance_grid(open, box, spec_with(32));
-  const double voxel = b.grid.spacing;
+  const double voxel = b.grid.voxel();
   long checked = 0;
   for (size_t t = 0; t < b.grid.size(); ++t) {
     const int i = int(t % b.grid.dims.x()), j = int(t / b.grid.dims.x() % b.grid.dims.y()),

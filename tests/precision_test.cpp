@@ -58,7 +58,7 @@ TEST_P(PrecisionTest, ErrorAgainstGroundTruth) {
   EXPECT_EQ(stats.nonfinite_pixels, 0);
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   Mesh truth_mesh =
-      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
+      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.voxel());
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   Image cpu =
       reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);

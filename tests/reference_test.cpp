@@ -49,7 +49,7 @@ BoxTextures sphere_textures(const Box& box, const Sphere& sphere, int sdf_resolu
   t.sdf.grid = make_grid_over<float>(box.lower() - Vec3::Constant(2 * h),
                                      box.upper() + Vec3::Constant(2 * h), sdf_resolution + 4);
   t.sdf.band_voxels = 3.0;
-  t.sdf.background = static_cast<float>(3.0 * t.sdf.grid.spacing);
+  t.sdf.background = static_cast<float>(3.0 * t.sdf.grid.voxel());
   auto& g = t.sdf.grid;
   for (int k = 0; k < g.dims.z(); ++k)
     for (int j = 0; j < g.dims.y(); ++j)
@@ -136,7 +136,7 @@ const Box kAxisBox = make_box(Vec3::Zero(), Vec3::Constant(1.2), Eigen::AngleAxi
 // float rounding of the stored values.
 double hit_tolerance(const BoxTextures& t, const RenderSettings& s, double r,
                      double cos_incidence) {
-  double h = t.sdf.grid.spacing;
+  double h = t.sdf.grid.voxel();
   double bracket = s.step_voxels * h / std::pow(2.0, s.refine_steps);
   return 0.5 * bracket + (3.0 * h * h / (8.0 * r)) / cos_incidence + 1e-6;
 }
@@ -168,7 +168,7 @@ TEST(ReferenceRayCast, HitsAnalyticSphere) {
     // Central differences at step h of the trilinear interpolant average two cells' slopes:
     // for f = r - |p| the gradient is off by O(h^2 |f'''|) = O(h^2 / r^2).
     double angle = std::acos(std::clamp(hit->normal.dot(n_true), -1.0, 1.0));
-    double h_over_r = tex.sdf.grid.spacing / kUnitSphere.radius;
+    double h_over_r = tex.sdf.grid.voxel() / kUnitSphere.radius;
     EXPECT_LT(angle, h_over_r * h_over_r) << "trial " << trial;
     worst_normal = std::max(worst_normal, angle);
   }
@@ -198,8 +198,8 @@ TEST(ReferenceRayCast, ConstantInverseDisplacementMovesTheSphere) {
     // The sphere pokes out of the box: a hit just before a box face plane (crossed by the ray in
     // the deformed space) may be kSeamVoxels from the surface.
     bool on_face =
-        ((box.half_extents - hit->point.cwiseAbs()).array().abs() < tex.sdf.grid.spacing).any();
-    if (on_face) tolerance += kSeamVoxels * tex.sdf.grid.spacing / cos_incidence;
+        ((box.half_extents - hit->point.cwiseAbs()).array().abs() < tex.sdf.grid.voxel()).any();
+    if (on_face) tolerance += kSeamVoxels * tex.sdf.grid.voxel() / cos_incidence;
     EXPECT_NEAR(hit->t, *truth, tolerance) << "trial " << trial;
   }
 }

@@ -45,7 +45,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
       reference_render(prepared.mesh(), prepared.textures(), camera, kSize, kSize, scene.render);
   auto F = [&](const Eigen::Vector3d& p) { return box.deformer->forward(p); };
   Mesh truth_mesh =
-      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.spacing);
+      ground_truth_mesh(prepared.mesh(), box.textures.box, F, 0.25 * box.textures.sdf.grid.voxel());
   Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   ImageComparison vs_cpu = compare_images(gl, cpu, 0.01 * diagonal);

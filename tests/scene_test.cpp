@@ -116,10 +116,12 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_EQ(b.implicit.resolution, 128);
   EXPECT_EQ(b.implicit.band_voxels, 3.0);
   EXPECT_EQ(b.implicit.margin_voxels, 2.0);
-  EXPECT_EQ(b.deformation_resolution, 96);
+  EXPECT_EQ(b.deformation_resolution, kAutoResolution);
+  EXPECT_EQ(b.deformation_max_mib, 64.0);
   EXPECT_EQ(b.cut_mode, CutMode::Solid);
   EXPECT_EQ(b.shell_thickness, 0.0);
-  EXPECT_EQ(b.alpha_resolution, 64);
+  EXPECT_EQ(b.alpha_resolution, kAutoResolution);
+  EXPECT_EQ(b.alpha_max_mib, 16.0);
   EXPECT_FALSE(s.camera.has_value());
   EXPECT_EQ(s.render.width, 512);
   EXPECT_EQ(s.render.height, 512);
@@ -186,6 +188,19 @@ TEST(Scene, OptionalSectionsAreRead) {
   expect_near(s.render.colour, {1, 1, 0});
 }
 
+TEST(Scene, AutoResolutionsAndTheirBudgets) {
+  json j = base_scene();
+  j["boxes"][0]["deformation"] = {{"resolution", "auto"}, {"max_mib", 12.5}};
+  Scene s = load_json("auto.json", j);
+  EXPECT_EQ(s.boxes[0].deformation_resolution, kAutoResolution);
+  EXPECT_EQ(s.boxes[0].deformation_max_mib, 12.5);
+  j["boxes"][0]["deformer"] = peel();
+  j["boxes"][0]["alpha"] = {{"max_mib", 2}};
+  s = load_json("auto_alpha.json", j);
+  EXPECT_EQ(s.boxes[0].alpha_resolution, kAutoResolution);
+  EXPECT_EQ(s.boxes[0].alpha_max_mib, 2.0);
+}
+
 TEST(Scene, RenderCutColoursAndSkipping) {
   json j = base_scene();
   j["render"] = json::parse(
@@ -214,7 +229,7 @@ TEST(Scene, PeelIsReadWithDefaults) {
   // Cut defaults.
   EXPECT_EQ(b.cut_mode, CutMode::Solid);
   EXPECT_EQ(b.shell_thickness, 0.0);
-  EXPECT_EQ(b.alpha_resolution, 64);
+  EXPECT_EQ(b.alpha_resolution, kAutoResolution);
 }
 
 TEST(Scene, PeelWithHingeHollowAndAlpha) {
@@ -261,7 +276,7 @@ TEST(Scene, IncisionDefaultsToSolid) {
   j["boxes"][0]["alpha"] = json::object();  // every field of alpha has a default
   Scene s = load_json("incision_default.json", j);
   EXPECT_EQ(s.boxes[0].cut_mode, CutMode::Solid);
-  EXPECT_EQ(s.boxes[0].alpha_resolution, 64);
+  EXPECT_EQ(s.boxes[0].alpha_resolution, kAutoResolution);
   EXPECT_EQ(s.boxes[0].deformer.from_axis, 1);
   EXPECT_EQ(s.boxes[0].deformer.from_side, 1);
 }
@@ -764,7 +779,7 @@ std::vector<BadCase> bad_cases() {
            box0(j)["implicit"] = {{"resolution", 1024}};
          });
        },
-       {": boxes[0].implicit.resolution = 1024: the textures of all boxes would take 4.0"}},
+       {": boxes[0].implicit.resolution = 1024: the textures of all boxes would take 4.1"}},
       {"MemoryBudgetSummedOverBoxes",
        [] {
          // 600^3 texels of 16 bytes = 3.2 GiB: one box fits, two do not.
@@ -864,7 +879,7 @@ std::vector<BadCase> bad_cases() {
            box0(j)["alpha"] = {{"res", 64}};
          });
        },
-       {": boxes[0].alpha.res = 64: unknown field; allowed: resolution"}},
+       {": boxes[0].alpha.res = 64: unknown field; allowed: resolution, max_mib"}},
       {"AlphaNotObject",
        [] {
          return edit([](json& j) {
@@ -872,7 +887,33 @@ std::vector<BadCase> bad_cases() {
            box0(j)["alpha"] = 64;
          });
        },
-       {": boxes[0].alpha = 64: must be a JSON object like {\"resolution\": ...}"}},
+       {": boxes[0].alpha = 64: must be a JSON object like {\"resolution\": \"auto\"}"}},
+      {"ResolutionNotAuto",
+       [] { return edit([](json& j) {
+              box0(j)["deformation"] = {{"resolution", "fine"}};
+            }); },
+       {": boxes[0].deformation.resolution = \"fine\": must be \"auto\" or an integer in [4, "
+        "1024]"}},
+      {"MaxMibWithExplicitResolution",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformation"] = {{"resolution", 96}, {"max_mib", 8}};
+         });
+       },
+       {": boxes[0].deformation.max_mib = 8: applies to \"resolution\": \"auto\" only"}},
+      {"MaxMibTooSmall",
+       [] { return edit([](json& j) {
+              box0(j)["deformation"] = {{"max_mib", 0.5}};
+            }); },
+       {": boxes[0].deformation.max_mib = 0.5: must be a number in [1, 1024]"}},
+      {"AlphaMaxMibTooLarge",
+       [] {
+         return edit([](json& j) {
+           box0(j)["deformer"] = peel();
+           box0(j)["alpha"] = {{"max_mib", 2048}};
+         });
+       },
+       {": boxes[0].alpha.max_mib = 2048: must be a number in [1, 1024]"}},
       {"PeelFromSameAxis",
        [] {
          return edit([](json& j) {
@@ -1189,7 +1230,7 @@ std::vector<BadCase> bad_cases() {
          });
        },
        {": boxes[0].alpha.resolution = 1024: the textures of all boxes would take 4.0",
-        "alpha maps 4.00 GiB", "more than the budget of 4.00 GiB; lower this resolution"}},
+        "alpha maps 4.00 GiB", "more than the budget of 4.00 GiB; lower this setting"}},
       {"MemoryBudgetCountsTheAlphaMap",
        [] {
          // D at 600^3 texels (3.22 GiB) fits alone (MemoryBudgetSummedOverBoxes); with an alpha

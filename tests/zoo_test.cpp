@@ -95,7 +95,7 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
     auto F = [&](const Eigen::Vector3d& q) { return box.deformer->forward(q); };
     const int split = spec.deformer.type == "incision" ? spec.deformer.axis : -1;
     const Mesh truth_mesh = ground_truth_mesh(prepared.mesh(), box.textures.box, F,
-                                              0.25 * box.textures.sdf.grid.spacing, split);
+                                              0.25 * box.textures.sdf.grid.voxel(), split);
     truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
     diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   }

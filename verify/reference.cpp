@@ -176,24 +176,26 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
 // spacing (not normalised).
 Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def) {
   Vec3 p = p_def + displacement(box, p_def);
-  double hf = implicit_spacing(box), hd = box.deformation.grid.spacing;
+  const double hf = implicit_spacing(box);
+  const Vec3& hd = box.deformation.grid.spacing;
   Vec3 grad_f;
   Eigen::Matrix3d jd;  // columns: dD/dx, dD/dy, dD/dz
   for (int a = 0; a < 3; ++a) {
-    Vec3 ef = Vec3::Unit(a) * hf, ed = Vec3::Unit(a) * hd;
+    Vec3 ef = Vec3::Unit(a) * hf, ed = Vec3::Unit(a) * hd[a];
     grad_f[a] = (implicit_value(box, p + ef) - implicit_value(box, p - ef)) / (2.0 * hf);
-    jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd);
+    jd.col(a) = (displacement(box, p_def + ed) - displacement(box, p_def - ed)) / (2.0 * hd[a]);
   }
   return (Eigen::Matrix3d::Identity() + jd).transpose() * (-grad_f);
 }
 
 // The cut face's outward normal (into the cut): grad A (eq. 6), not normalised.
 Vec3 alpha_gradient(const BoxTextures& box, const Vec3& p_def) {
-  const double h = box.alpha.grid.spacing;
+  const Vec3& h = box.alpha.grid.spacing;
   Vec3 g;
   for (int a = 0; a < 3; ++a)
-    g[a] = box.alpha.grid.sample(p_def + h * Vec3::Unit(a)).value() -
-           box.alpha.grid.sample(p_def - h * Vec3::Unit(a)).value();
+    g[a] = (box.alpha.grid.sample(p_def + h[a] * Vec3::Unit(a)).value() -
+            box.alpha.grid.sample(p_def - h[a] * Vec3::Unit(a)).value()) /
+           (2.0 * h[a]);
   return g;
 }
 
@@ -458,7 +460,7 @@ class Rasterizer {
 }  // namespace
 
 double jacobian_step(const BoxTextures& box, const Vec3& p_def, const Vec3& v, double ds) {
-  const double h = box.deformation.grid.spacing;
+  const double h = box.deformation.grid.voxel();
   const Vec3 jv = (displacement(box, p_def + h * v) - displacement(box, p_def - h * v)) / (2.0 * h);
   return ds / std::clamp((v + jv).norm(), 0.25, 16.0);
 }
