@@ -329,7 +329,11 @@ void main() {
   for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
     float advance = u_step;
 #ifdef RAYWARP_SAMPLING_THRESHOLD
-    if (s.valid && abs(RAYWARP_THRESHOLD_VALUE) < u_threshold) advance = u_step * u_fine_factor;
+    // Within the threshold the fine step; beyond it no longer than |value|, the distance a
+    // surface needs to reach the ray where the deformation stretches nothing (a thin part just
+    // past the threshold is not stepped over), and at most the coarse step.
+    float watched = abs(RAYWARP_THRESHOLD_VALUE);
+    if (s.valid) advance = watched < u_threshold ? u_step * u_fine_factor : min(watched, u_step);
 #elif defined(RAYWARP_SAMPLING_JACOBIAN) && !defined(RAYWARP_MOVES_NOTHING)
     advance = jacobian_step(o + t * d, d);
 #endif

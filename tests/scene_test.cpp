@@ -114,7 +114,7 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   // Defaults as scene.h and docs/scene.md state them.
   EXPECT_EQ(b.implicit.type, "sdf");
   EXPECT_EQ(b.implicit.resolution, 128);
-  EXPECT_EQ(b.implicit.band_voxels, 3.0);
+  EXPECT_EQ(b.implicit.band_voxels, 4.0);
   EXPECT_EQ(b.implicit.margin_voxels, 2.0);
   EXPECT_EQ(b.deformation_resolution, kAutoResolution);
   EXPECT_EQ(b.deformation_max_mib, 64.0);

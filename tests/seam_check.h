@@ -110,17 +110,18 @@ Cracks count_cracks(const Mesh& mesh, const Box& box, const Deformer& deformer,
 }
 
 // Scenes with cracks at the defaults, held to what they reach. zoo/camel_incision (6 pixels) is a
-// thin leg crossing an identity face that the default sampler (threshold: 4-voxel steps where
-// |f| is over 2 voxels) steps through just inside the box: render.sampling linear or
-// implicit.resolution 256 closes it, as it does the zoo's other incisions and the folding bend.
-// seams/horse_peel_1 (2 pixels, at the -y face of a 1-degree peel) keeps 1 with linear and 2 at
-// a 256 grid: its cause is not the sampler alone.
+// thin leg crossing an identity face just inside the box: render.sampling linear or
+// implicit.resolution 256 closes it, as it does the zoo's other incisions and the folding bend
+// (measured with the coarse step of 4 voxels wherever |f| was over 2 voxels; capping it by |f|
+// left these counts as they were). seams/horse_peel_1 (3 pixels, at the -y face of a 1-degree
+// peel; 2 with the uncapped coarse step) kept 1 with linear and 2 at a 256 grid: its cause is not
+// the sampler alone.
 struct KnownCracks {
   const char* scene;
   long pixels;
 };
 const KnownCracks kKnownCracks[] = {
-    {"seams/horse_peel_1.json", 2},     {"zoo/camel_incision.json", 6},
+    {"seams/horse_peel_1.json", 3},     {"zoo/camel_incision.json", 6},
     {"zoo/horse_legs_bend.json", 3},    {"zoo/horse_legs_incision.json", 7},
     {"zoo/scan_trex_incision.json", 2},
 };

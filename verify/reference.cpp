@@ -499,9 +499,11 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
     double advance = step;
     if (settings.sampling == "threshold") {
-      const double watched = hollow ? s.f : value(box, s);
-      if (s.valid && std::abs(watched) < settings.threshold_voxels * implicit_spacing(box))
-        advance = step * settings.fine_factor;
+      const double watched = std::abs(hollow ? s.f : value(box, s));
+      if (s.valid)
+        advance = watched < settings.threshold_voxels * implicit_spacing(box)
+                      ? step * settings.fine_factor
+                      : std::min(watched, step);
     } else if (settings.sampling == "jacobian" && !box.moves_nothing) {
       advance = jacobian_step(box, o + t * d, d, step);
     }
