@@ -79,7 +79,8 @@ struct RenderSettings {
   Eigen::Vector3d inside_colour{0.3, 0.42, 0.62};  // the inside of a shell (back faces)
   bool skipping = true;  // empty-space skipping (cut region and far from the surface)
   // Linear-search step rule: "linear" (fixed step), "threshold" (Hadwiger et al. 2005: a step
-  // shrunk by fine_factor where |value| < threshold_voxels voxels), "jacobian" (eq. 4:
+  // shrunk by fine_factor where |value| < threshold_voxels voxels, and no longer than |value|
+  // beyond that), "jacobian" (eq. 4:
   // step / |(I + J_D) v|, clamped to [step / 16, 4 step]), "bounded" (sphere tracing of
   // g = f(p' + D(p')) with steps bounded by Lipschitz constants per brick of D).
   // The default, threshold at 4 voxels with 1/8 of that (0.5 voxel) within 2 voxels of the
