@@ -18,9 +18,9 @@
 namespace raywarp {
 
 struct ImplicitSpec {
-  std::string type = "sdf";    // "sdf" (distance grid) | "depth_cube" (library/depth_cube.h)
-  int resolution = 128;        // voxels (texels) along the box's longest side, [8, 1024]
-                               // ([8, 4096] for a depth cube)
+  std::string type = "sdf";  // "sdf" (distance grid) | "depth_cube" (library/depth_cube.h)
+  int resolution = 128;      // voxels (texels) along the box's longest side, [8, 1024]
+                             // ([8, 4096] for a depth cube)
   // Narrow-band half width, [1, 32] (sdf only): as wide as the threshold method's coarse step
   // (step_voxels 4), which goes no further than |f| (RenderSettings::sampling).
   double band_voxels = 4.0;

@@ -157,10 +157,11 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
           ++linear_covered;
           stepped_over += !image.covered(x, y);
         }
-    std::printf("[figures] zoo %s: the default misses %ld of the %ld pixels linear at %g voxel "
-                "covers (%.3f %%)\n",
-                name.c_str(), stepped_over, linear_covered, kFineStepVoxels,
-                linear_covered ? 100.0 * stepped_over / linear_covered : 0.0);
+    std::printf(
+        "[figures] zoo %s: the default misses %ld of the %ld pixels linear at %g voxel "
+        "covers (%.3f %%)\n",
+        name.c_str(), stepped_over, linear_covered, kFineStepVoxels,
+        linear_covered ? 100.0 * stepped_over / linear_covered : 0.0);
     auto percent = [&](long n) { return covered ? 100.0 * n / covered : 0.0; };
     std::printf(
         "[figures] zoo %s: of the %ld pixels bounded covers, the default sampler misses %ld "
