@@ -30,6 +30,16 @@ MESHES = [
 ]
 
 
+# Single scenes beyond the four per mesh: name, mesh, box, extra fields, camera, what it shows.
+SINGLE = [
+    ("man_whole_cut", "man.ply.xz", ([0, 0, 0], [0.22, 0.155, 0.505], [180, 0, 0]),
+     {"deformer": {"type": "box_cut", "wedge": {"axis": "z", "from_deg": 0, "angle_deg": 90}},
+      "cut_mode": "solid"},
+     ([-0.55, -0.45, 0], [-0.1875, 0.0325, -0.0275], [0, 0, 1], 20),
+     "a solid cut of the whole figure, seen at one hand (a voxel about a finger thick)"),
+]
+
+
 def camera(eye, target, up, fov):
     d = math.dist(eye, target)
     return {"projection": "perspective", "eye": eye, "target": target, "up": up, "fov_y_deg": fov,
@@ -59,6 +69,12 @@ def main():
                 f.write("// " if False else "")
                 json.dump(scene, f, indent=2)
                 f.write("\n")
+    for name, mesh, (centre, half, rot), extra, cam, _ in SINGLE:
+        box = {"centre": centre, "half_extents": half, "rotation_deg": rot}
+        scene = {"mesh": "../meshes/" + mesh, "boxes": [dict(box, **extra)], "camera": camera(*cam)}
+        with open(os.path.join(out, f"{name}.json"), "w") as f:
+            json.dump(scene, f, indent=2)
+            f.write("\n")
     with open(os.path.join(out, "README.md"), "w") as f:
         f.write("# Scenes on meshes nobody tuned for\n\n"
                 "Written by `scripts/make_zoo.py`: a twist, a bend, a box cut (solid on closed meshes, "
@@ -67,6 +83,8 @@ def main():
                 "figures are in `docs/meshes.md`.\n\n| scenes | mesh | the box holds |\n| --- | --- | --- |\n")
         for name, mesh, closed, _, _, _, _, what in MESHES:
             f.write(f"| `{name}_*.json` | `{mesh}` ({'closed' if closed else 'open'}) | {what} |\n")
+        for name, mesh, _, _, _, what in SINGLE:
+            f.write(f"| `{name}.json` | `{mesh}` | {what} |\n")
 
 
 main()
