@@ -39,11 +39,11 @@ struct Known {
 // Cases below the marks at the defaults, with the reason.
 const Known kKnownShort[] = {
     {"devil_cut", 0.998, 0.02,
-     "the default sampler (threshold) steps through the thin nose of the hollow shell and shows "
-     "its inside; render.sampling linear reaches 0.15 % over"},
+     "the thin tip of the nose shows the hollow shell's inside at the default sampler "
+     "(threshold); render.sampling linear reaches 0.15 % over"},
     {"devil_incision", 0.996, 0.022,
-     "the default sampler steps through the thin nose of the hollow shell; render.sampling "
-     "linear reaches 0.39 % over"},
+     "the thin tip of the nose shows the hollow shell's inside at the default sampler; "
+     "render.sampling linear reaches 0.39 % over"},
     {"man_whole_cut", 0.95, 0.01,
      "a box over the whole figure: at the default 128 distance grid its voxel (7.9e-3 units) is "
      "about a finger's thickness, and the fingers fall apart in the grid; implicit.resolution "
