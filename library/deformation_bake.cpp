@@ -197,11 +197,13 @@ namespace {
 
 // The refinement both automatic layouts share. `bake(counts, first)` bakes at `counts` (the
 // floor's own layout when `first`) and returns the measured error; `per_axis()` estimates the
-// errors along each axis of what was baked last. `grown` texels are added along each axis after
-// the choice (the lower-face shift), and counted against the budget.
-template <class Bake, class PerAxis>
+// errors along each axis of what was baked last; `keep()` and `restore()` save the last bake as
+// the best so far and bring it back. `grown` texels are added along each axis after the choice
+// (the lower-face shift), and counted against the budget.
+template <class Bake, class PerAxis, class Keep, class Restore>
 void refine_layout(const Eigen::Vector3i& floor, std::uint64_t texel_bytes, int grown,
-                   ResolutionChoice& choice, double& error, Bake&& bake, PerAxis&& per_axis) {
+                   ResolutionChoice& choice, double& error, Bake&& bake, PerAxis&& per_axis,
+                   Keep&& keep, Restore&& restore) {
   auto bytes_of = [&](const Eigen::Vector3i& n) {
     return std::uint64_t(n.x() + grown) * (n.y() + grown) * (n.z() + grown) * texel_bytes;
   };
@@ -223,23 +225,40 @@ void refine_layout(const Eigen::Vector3i& floor, std::uint64_t texel_bytes, int 
   constexpr double kMargin = 0.8;
   constexpr int kMaxBakes = 4;
   const double target = choice.target;
+  double best = std::numeric_limits<double>::infinity();
+  bool improved = true;
   for (int n = 1;; ++n) {
     error = bake(counts, n == 1 && counts == floor);
     choice.bakes = n;
+    // A refinement along the axes the estimates name can fail to help where the error is a
+    // kink's (it falls as 1 / n, along every axis that crosses it): the best bake so far is
+    // kept, and the next round refines every axis alike.
+    improved = error < best;
+    if (improved) {
+      best = error;
+      keep();
+    }
     if (error <= target || choice.budget_bound || n == kMaxBakes) break;
-    const Eigen::Vector3d errors = per_axis();
-    // Where the per-axis estimates fall short of the measured error, the target shrinks alike.
-    const double sum = errors.sum();
-    const double scale = sum > 0.0 ? std::min(1.0, sum / error) : 1.0;
-    Eigen::Vector3i next = counts_for_error(counts, errors, kMargin * target * scale, counts);
-    if (next == counts) {  // no axis stands out: refine all by the error's ratio
-      const double grow = std::sqrt(error / (kMargin * target));
+    Eigen::Vector3i next = counts;
+    if (improved) {
+      const Eigen::Vector3d errors = per_axis();
+      // Where the per-axis estimates fall short of the measured error, the target shrinks alike.
+      const double sum = errors.sum();
+      const double scale = sum > 0.0 ? std::min(1.0, sum / error) : 1.0;
+      next = counts_for_error(counts, errors, kMargin * target * scale, counts);
+    }
+    if (next == counts) {  // no axis stands out, or that did not help: refine all alike
+      const double grow = std::clamp(best / (kMargin * target), 1.25, 2.0);
       for (int a = 0; a < 3; ++a) next[a] = std::min(kMaxCount, int(std::ceil(counts[a] * grow)));
       if (next == counts) break;
     }
     next = within_budget(next.cwiseMax(3));
     if (next == counts) break;
     counts = next;
+  }
+  if (error > best) {
+    restore();
+    error = best;
   }
 }
 
@@ -264,6 +283,7 @@ AutoDeformation bake_deformation_auto(const Deformer& deformer, const Eigen::Vec
   // The floor: the cubic layout of `floor_resolution` texels along the longest side, baked as
   // such (the same texture an explicit resolution bakes).
   const Eigen::Vector3i floor = deformation_layout(deformer, half_extents, floor_resolution).dims;
+  DeformationTexture best;
   refine_layout(
       floor, sizeof(Eigen::Vector4f), centred ? 1 : 0, out.choice, out.error,
       [&](const Eigen::Vector3i& counts, bool as_floor) {
@@ -273,7 +293,8 @@ AutoDeformation bake_deformation_auto(const Deformer& deformer, const Eigen::Vec
                 : bake_deformation(deformer, half_extents, counts, centred, interrupter);
         return deformation_texture_error(deformer, out.texture, 2, interrupter);
       },
-      [&] { return axis_interpolation_errors(deformer, out.texture, interrupter); });
+      [&] { return axis_interpolation_errors(deformer, out.texture, interrupter); },
+      [&] { best = out.texture; }, [&] { out.texture = std::move(best); });
   out.texture.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
@@ -394,6 +415,7 @@ AutoAlpha bake_alpha_auto(const Deformer& deformer, const Eigen::AlignedBox3d& r
   const auto start = std::chrono::steady_clock::now();
   const Eigen::Vector3i floor =
       make_grid_over(region.min(), region.max(), floor_resolution, 0.0f).dims;
+  AlphaMap best;
   refine_layout(
       floor, sizeof(float), 0, out.choice, out.error,
       [&](const Eigen::Vector3i& counts, bool as_floor) {
@@ -401,7 +423,8 @@ AutoAlpha bake_alpha_auto(const Deformer& deformer, const Eigen::AlignedBox3d& r
                            : bake_alpha(deformer, region, counts, interrupter);
         return alpha_map_error(deformer, out.map, band, 1, interrupter);
       },
-      [&] { return alpha_axis_errors(out.map, band, interrupter); });
+      [&] { return alpha_axis_errors(out.map, band, interrupter); }, [&] { best = out.map; },
+      [&] { out.map = std::move(best); });
   out.map.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;

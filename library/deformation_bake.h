@@ -60,7 +60,9 @@ Eigen::Vector3i counts_for_error(const Eigen::Vector3i& counts, const Eigen::Vec
 // An automatic layout: starts from the cubic layout of `floor_resolution` texels along the
 // longest side, measures deformation_texture_error, and while it exceeds `target` refines the
 // axes whose interpolation error demands it (axis_interpolation_errors, counts_for_error), at
-// most four bakes, never past `budget_bytes` (all axes are scaled down alike to fit).
+// most four bakes, never past `budget_bytes` (all axes are scaled down alike to fit). A round
+// that does not lower the error (a kink's or a jump's, which the per-axis estimates misread) is
+// followed by one that refines every axis alike, and the best bake is the one returned.
 struct AutoDeformation {
   DeformationTexture texture;  // bake_seconds: all bakes and measurements together
   double error = 0.0;          // deformation_texture_error of `texture`

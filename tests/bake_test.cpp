@@ -35,10 +35,13 @@
 #include <cstdio>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include "base/error.h"
 #include "deformers/bend.h"
+#include "deformers/box_cut.h"
 #include "deformers/deformer.h"
+#include "deformers/incision.h"
 #include "deformers/twist.h"
 #include "library/deformation_bake.h"
 #include "library/scene.h"
@@ -317,6 +320,42 @@ TEST(Bake, AutoLayoutStaysWithinItsBudget) {
   const AutoDeformation c =
       bake_deformation_auto(*twist, h, 1e-4, budget, kAutoFloorResolution, true);
   EXPECT_LE(c.texture.grid.size() * 16, budget);
+}
+
+// The alpha map's automatic layout: from the cubic floor up until A's error within the band
+// around the cut face is at most the target, within its budget, for a box cut's wedge (kinks
+// along its edge, where the error falls as 1 / n) and an incision; never worse than the floor
+// (a refinement that does not help is not kept).
+TEST(Bake, AutoAlphaMeetsItsTarget) {
+  const Eigen::Vector3d h(0.5, 0.8, 0.35);
+  BoxCutParams params;
+  params.wedge_axis = Axis::Z;
+  params.wedge_from_deg = 10.0;
+  params.wedge_angle_deg = 90.0;
+  const auto cut = make_box_cut(h, params);
+  const auto incision = make_incision(h, Axis::X, Face{Axis::Y, 1}, 0.9, 0.2);
+  const Eigen::AlignedBox3d region(-1.1 * h, 1.1 * h);
+  const double voxel = 2.0 * h.maxCoeff() / 256, target = kAutoErrorVoxels * voxel;
+  const double band = kAlphaBandVoxels * voxel;
+  const std::vector<const Deformer*> deformers = {cut.get(), incision.get()};
+  for (const Deformer* d : deformers) {
+    const AlphaMap floor = bake_alpha(*d, region, 16);
+    const double floor_error = alpha_map_error(*d, floor, band);
+    const AutoAlpha a = bake_alpha_auto(*d, region, target, band, std::uint64_t(16) << 20, 16);
+    std::printf(
+        "%s: alpha at the floor (16) error %.3g; auto %dx%dx%d error %.3g (target %.3g), "
+        "%d bakes\n",
+        d->describe().c_str(), floor_error, a.map.grid.dims.x(), a.map.grid.dims.y(),
+        a.map.grid.dims.z(), a.error, target, a.choice.bakes);
+    EXPECT_TRUE(a.choice.automatic);
+    EXPECT_LE(a.error, floor_error);
+    EXPECT_NEAR(a.error, alpha_map_error(*d, a.map, band), 1e-12);
+    EXPECT_LE(a.map.grid.size() * 4, std::uint64_t(16) << 20);
+    ASSERT_GT(floor_error, target) << "the case must need the refinement";
+    EXPECT_LE(a.error, target);
+    for (int axis = 0; axis < 3; ++axis)  // the region exactly, texels per axis
+      EXPECT_NEAR(a.map.grid.extent()[axis], region.sizes()[axis], 1e-12);
+  }
 }
 
 // Not a check: the bake times the report quotes (96 texels along the longest side).
