@@ -149,29 +149,18 @@ int read_resolution(const JsonReader& r, const json& j, const std::string& field
   return r.integer(j, field, 4, 1024);
 }
 
-void read_deformation(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
+// A texture's layout section, "deformation" or "alpha": {"resolution": "auto" | n, "max_mib"}.
+void read_layout(const JsonReader& r, const json& j, const std::string& field, int& resolution,
+                 double& max_mib) {
   r.require_object(j, field, "{\"resolution\": \"auto\"}");
   r.check_keys(j, field, {"resolution", "max_mib"});
   if (j.contains("resolution"))
-    b.deformation_resolution = read_resolution(r, j["resolution"], child(field, "resolution"));
+    resolution = read_resolution(r, j["resolution"], child(field, "resolution"));
   if (j.contains("max_mib")) {
-    if (b.deformation_resolution != kAutoResolution)
+    if (resolution != kAutoResolution)
       r.fail(child(field, "max_mib"), j["max_mib"],
              "applies to \"resolution\": \"auto\" only (an explicit resolution fixes the size)");
-    b.deformation_max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
-  }
-}
-
-void read_alpha(const JsonReader& r, const json& j, const std::string& field, BoxSpec& b) {
-  r.require_object(j, field, "{\"resolution\": \"auto\"}");
-  r.check_keys(j, field, {"resolution", "max_mib"});
-  if (j.contains("resolution"))
-    b.alpha_resolution = read_resolution(r, j["resolution"], child(field, "resolution"));
-  if (j.contains("max_mib")) {
-    if (b.alpha_resolution != kAutoResolution)
-      r.fail(child(field, "max_mib"), j["max_mib"],
-             "applies to \"resolution\": \"auto\" only (an explicit resolution fixes the size)");
-    b.alpha_max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
+    max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
   }
 }
 
@@ -200,7 +189,8 @@ void read_cut_settings(const JsonReader& r, const json& j, const std::string& fi
            "only with cut_mode thick_shell; " + child(field, "cut_mode") + " is " + mode +
                (j.contains("cut_mode") ? "" : " (the default)"));
   }
-  if (j.contains("alpha")) read_alpha(r, j["alpha"], child(field, "alpha"), b);
+  if (j.contains("alpha"))
+    read_layout(r, j["alpha"], child(field, "alpha"), b.alpha_resolution, b.alpha_max_mib);
 }
 
 BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
@@ -219,7 +209,8 @@ BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   if (j.contains("implicit"))
     b.implicit = read_implicit(r, j["implicit"], child(field, "implicit"));
   if (j.contains("deformation"))
-    read_deformation(r, j["deformation"], child(field, "deformation"), b);
+    read_layout(r, j["deformation"], child(field, "deformation"), b.deformation_resolution,
+                b.deformation_max_mib);
   return b;
 }
 
