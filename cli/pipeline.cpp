@@ -37,6 +37,23 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
     log << tag << describe(tex.depth_cube) << (s->source == Source::Memory ? " (from memory)" : "")
         << "\n";
   }
+  if (const ImplicitChoice& c = r.implicit_choice; c.automatic) {
+    log << tag << "implicit resolution auto: ";
+    if (c.feature > 0)
+      log << "feature size " << fmt("%.3g", c.feature) << " units (the "
+          << fmt("%g", 100 * kFeatureQuantile) << "th percentile of " << c.hits
+          << " chords across the solid, " << c.limbs << " on limbs, from " << c.samples
+          << " points) for " << fmt("%g", kFeatureVoxels) << " voxels across";
+    else
+      log << "no chord across a solid from " << c.samples << " points (open sheets)";
+    log << ": " << c.resolution;
+    if (c.budget_bound)
+      log << ", held to the budget of " << fmt("%g", mib(c.budget_bytes)) << " MiB (it asked for "
+          << c.wanted << ")";
+    else
+      log << " within " << fmt("%g", mib(c.budget_bytes)) << " MiB";
+    log << "\n";
+  }
   if (const StageReport* s = r.stage(Stage::DistanceGrid)) {
     if (from_cache(s))
       log << tag << "distance grid from the "

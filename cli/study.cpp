@@ -287,7 +287,10 @@ constexpr int kBoundedMaxSteps = 4096;
 
 // A scene box with a point's resolutions (scaled, within the scene format's minimums) and band.
 BoxSpec scaled_box(BoxSpec b, const Point& p) {
-  b.implicit.resolution = std::max(8, int(std::lround(b.implicit.resolution * p.resolution_scale)));
+  // An automatic resolution is resolved before the sweep (run_study), on the scene's own bake.
+  if (b.implicit.resolution != kAutoResolution)
+    b.implicit.resolution =
+        std::max(8, int(std::lround(b.implicit.resolution * p.resolution_scale)));
   // An automatic layout follows the scaled grid's voxel by itself.
   if (b.deformation_resolution != kAutoResolution)
     b.deformation_resolution =
@@ -546,7 +549,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
   std::vector<std::string> names, truth_kinds;
   std::vector<Goal> goals;
   for (size_t si = 0; si < scenes.size(); ++si) {
-    const Scene& scene = scenes[si];
+    Scene scene = scenes[si];
     const std::string name = options.scenes[si].stem().string();
     names.push_back(name);
     const Camera& camera = *scene.camera;
@@ -576,6 +579,10 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
     };
 
     const PreparedScene& base = bake(Point{});
+    // The sweep scales the resolution the scene's own bake chose.
+    for (size_t b = 0; b < scene.boxes.size(); ++b)
+      if (scene.boxes[b].implicit.resolution == kAutoResolution)
+        scene.boxes[b].implicit.resolution = base.boxes[b].report.implicit_choice.resolution;
     const Truth truth = ground_truth(scene, base, camera, options.size);
     truth_kinds.push_back(truth.kind);
     // What the bounded tracer covers on the scene's own textures: a step never passes a surface

@@ -488,6 +488,23 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
   // the grid holds only +-background, must reach past tau.
   ImplicitSpec implicit = spec.implicit;
+  if (implicit.resolution == kAutoResolution) {
+    // The probe takes milliseconds but runs on every bake: the session keeps its answer.
+    const std::string key = (Key() << "implicit resolution\nmesh" << job.mesh->hash << "\n"
+                                   << box_key(spec.box) << "\n"
+                                   << implicit.type << "budget" << implicit.max_mib)
+                                .str();
+    if (auto hit = find(key)) {
+      report.implicit_choice = *static_cast<const ImplicitChoice*>(hit.get());
+    } else {
+      report.implicit_choice = choose_implicit_resolution(mesh, spec.box, implicit, interrupter);
+      keep(key, std::make_shared<const ImplicitChoice>(report.implicit_choice),
+           sizeof(ImplicitChoice));
+    }
+  }
+  report.implicit_choice.resolution = implicit.resolution = implicit.resolution == kAutoResolution
+                                                                ? report.implicit_choice.resolution
+                                                                : implicit.resolution;
   if (out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell && implicit.type == "sdf") {
     const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
     const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;

@@ -26,6 +26,7 @@
 #include "deformers/deformer.h"
 #include "library/bake_cache.h"
 #include "library/deformation_bake.h"
+#include "library/implicit.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "library/textures.h"
@@ -75,6 +76,7 @@ struct BakeReport {
   const StageReport* stage(Stage s) const;  // null when the job had no such stage
 
   double voxel = 0.0;  // the implicit's spacing: the unit of steps, seams and the errors below
+  ImplicitChoice implicit_choice;  // how an automatic implicit resolution was chosen
   // Distance grid (stage DistanceGrid).
   double band_voxels = 0.0;
   double band_widened_from = 0.0;  // > 0: the scene's band, widened to hold a thick shell

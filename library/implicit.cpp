@@ -19,6 +19,8 @@
 
 #include "base/error.h"
 #include "base/parallel.h"
+#include "library/depth_cube.h"
+#include "library/thickness.h"
 #include "library/triangle_bvh.h"
 #include "library/winding.h"
 
@@ -330,6 +332,42 @@ void sign_beyond_band(const WindingNumber& winding, const Box& box, const Grid3<
 }
 
 }  // namespace
+
+std::uint64_t distance_grid_bytes(const Box& box, const ImplicitSpec& spec) {
+  return static_cast<std::uint64_t>(grid_shape(box, spec).texels()) * sizeof(float);
+}
+
+ImplicitChoice choose_implicit_resolution(const Mesh& mesh, const Box& box,
+                                          const ImplicitSpec& spec, Interrupter* interrupter) {
+  ImplicitChoice c;
+  c.resolution = spec.resolution;
+  if (spec.resolution != kAutoResolution) return c;
+  c.automatic = true;
+  const ThicknessProbe probe = probe_thickness(mesh, box, 2048, interrupter);
+  c.samples = probe.samples;
+  c.hits = probe.hits;
+  c.limbs = probe.limbs;
+  c.feature = probe.quantile(kFeatureQuantile);
+  const double longest = 2.0 * box.half_extents.maxCoeff();
+  constexpr int kMaxResolution = 1024, kStep = 8;
+  c.wanted = kAutoImplicitFloorResolution;
+  if (c.feature > 0.0) {
+    const double voxels = std::ceil(kFeatureVoxels * longest / c.feature / kStep) * kStep;
+    c.wanted =
+        int(std::clamp(voxels, double(kAutoImplicitFloorResolution), double(kMaxResolution)));
+  }
+  c.budget_bytes = static_cast<std::uint64_t>(spec.max_mib * double(1 << 20));
+  ImplicitSpec s = spec;
+  auto bytes = [&](int resolution) {
+    s.resolution = resolution;
+    return spec.type == "depth_cube" ? depth_cube_bytes(box.half_extents, resolution)
+                                     : distance_grid_bytes(box, s);
+  };
+  c.resolution = c.wanted;
+  while (c.resolution > kStep && bytes(c.resolution) > c.budget_bytes) c.resolution -= kStep;
+  c.budget_bound = c.resolution < c.wanted;
+  return c;
+}
 
 DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
                                 size_t memory_budget_bytes, Interrupter* interrupter) {

@@ -117,24 +117,38 @@ void read_deformers(const JsonReader& r, const json& j, const std::string& field
 
 ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"type\": \"sdf\", \"resolution\": ...}");
-  r.check_keys(j, field, {"type", "resolution", "band_voxels", "margin_voxels"});
+  r.check_keys(j, field, {"type", "resolution", "max_mib", "band_voxels", "margin_voxels"});
   ImplicitSpec s;
   if (j.contains("type"))
     s.type = r.one_of(j["type"], child(field, "type"), {"sdf", "depth_cube"},
                       " (sdf: a signed distance grid; depth_cube: six depth maps, one per face)");
+  // Six maps of resolution^2 texels at most: a finer grid than a distance grid's fits.
+  const int most = s.type == "depth_cube" ? 4096 : 1024;
+  if (j.contains("resolution")) {
+    const json& v = j["resolution"];
+    const std::string allowed =
+        "must be \"auto\" or an integer in [8, " + std::to_string(most) + "]";
+    if (v.is_string() && v.get<std::string>() == "auto")
+      s.resolution = kAutoResolution;
+    else if (v.is_string())
+      r.fail(child(field, "resolution"), v, allowed);
+    else
+      s.resolution = r.integer(v, child(field, "resolution"), 8, most);
+  }
+  if (j.contains("max_mib")) {
+    if (s.resolution != kAutoResolution)
+      r.fail(child(field, "max_mib"), j["max_mib"],
+             "applies to \"resolution\": \"auto\" only (an explicit resolution fixes the size)");
+    s.max_mib = r.number(j["max_mib"], child(field, "max_mib"), closed(1, 1024));
+  }
   if (s.type == "depth_cube") {
-    // Six maps of resolution^2 texels at most: a finer grid than a distance grid's fits.
     for (const char* key : {"band_voxels", "margin_voxels"})
       if (j.contains(key))
         r.fail(child(field, key), j[key],
                std::string(key) + " applies to the distance grid (type sdf); " +
                    child(field, "type") + " is depth_cube");
-    if (j.contains("resolution"))
-      s.resolution = r.integer(j["resolution"], child(field, "resolution"), 8, 4096);
     return s;
   }
-  if (j.contains("resolution"))
-    s.resolution = r.integer(j["resolution"], child(field, "resolution"), 8, 1024);
   if (j.contains("band_voxels"))
     s.band_voxels = r.number(j["band_voxels"], child(field, "band_voxels"), closed(1, 32));
   if (j.contains("margin_voxels"))
@@ -268,7 +282,10 @@ void check_overlaps(const JsonReader& r, const json& boxes, const std::vector<Bo
 // by margin_voxels on every side, rounded up to whole voxels. The deformation texture covers
 // F(box), unknown before the deformer runs: at most resolution^3 texels of 4 floats (a cube is
 // the worst case for `resolution` texels along the longest side).
+// An automatic resolution takes at most its budget.
 std::uint64_t distance_grid_bytes(const BoxSpec& b) {
+  if (b.implicit.resolution == kAutoResolution)
+    return static_cast<std::uint64_t>(b.implicit.max_mib * double(1 << 20));
   const Eigen::Vector3d& h = b.box.half_extents;
   double spacing = 2.0 * h.maxCoeff() / b.implicit.resolution;
   std::uint64_t voxels = 1;
@@ -283,7 +300,7 @@ std::uint64_t distance_grid_bytes(const BoxSpec& b) {
 // The implicit surface: the distance grid, or a depth cube's six maps (one 2D array texture of
 // 6 layers, each as large as the largest map; depth_cube_bytes).
 std::uint64_t implicit_bytes(const BoxSpec& b) {
-  if (b.implicit.type == "depth_cube")
+  if (b.implicit.type == "depth_cube" && b.implicit.resolution != kAutoResolution)
     return depth_cube_bytes(b.box.half_extents, b.implicit.resolution);
   return distance_grid_bytes(b);
 }
@@ -331,7 +348,10 @@ void check_memory_budget(const JsonReader& r, const std::vector<BoxSpec>& specs)
     textures += t;
     alphas += a;
     cuts = cuts || is_cut(specs[i].deformer);
-    consider(g, element("boxes", i) + ".implicit.resolution", specs[i].implicit.resolution);
+    if (specs[i].implicit.resolution == kAutoResolution)
+      consider(g, element("boxes", i) + ".implicit.max_mib", specs[i].implicit.max_mib);
+    else
+      consider(g, element("boxes", i) + ".implicit.resolution", specs[i].implicit.resolution);
     if (specs[i].deformation_resolution == kAutoResolution)
       consider(t, element("boxes", i) + ".deformation.max_mib", specs[i].deformation_max_mib);
     else

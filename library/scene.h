@@ -17,20 +17,32 @@
 
 namespace raywarp {
 
+// "resolution": "auto" of the implicit surface, the deformation texture and the alpha map.
+constexpr int kAutoResolution = 0;
+
+// The implicit's automatic resolution: the feature size of the part of the mesh in the box
+// (probe_thickness, library/thickness.h: the kFeatureQuantile quantile of its limbs' thickness,
+// twice a sheet's) spans at least kFeatureVoxels voxels, from kAutoImplicitFloorResolution up,
+// within ImplicitSpec::max_mib (choose_implicit_resolution, library/implicit.h).
+constexpr int kAutoImplicitFloorResolution = 128;
+constexpr double kFeatureVoxels = 5.0;
+constexpr double kFeatureQuantile = 0.05;
+
 struct ImplicitSpec {
   std::string type = "sdf";  // "sdf" (distance grid) | "depth_cube" (library/depth_cube.h)
-  int resolution = 128;      // voxels (texels) along the box's longest side, [8, 1024]
-                             // ([8, 4096] for a depth cube)
+  // Voxels (texels) along the box's longest side, [8, 1024] ([8, 4096] for a depth cube), or
+  // kAutoResolution ("auto", the default).
+  int resolution = kAutoResolution;
+  double max_mib = 48;  // the automatic resolution's budget, MiB, [1, 1024]
   // Narrow-band half width, [1, 32] (sdf only): as wide as the threshold method's coarse step
   // (step_voxels 4), which goes no further than |f| (RenderSettings::sampling).
   double band_voxels = 4.0;
   double margin_voxels = 2.0;  // grid margin around the box, [0, 64] (sdf only)
 };
 
-// "resolution": "auto" of the deformation texture and the alpha map.
-constexpr int kAutoResolution = 0;
-// The automatic layouts start from, and never go below, the cubic layout of this many texels
-// along the longest side (the fixed default before layouts were automatic).
+// The automatic layouts of the deformation texture start from, and never go below, the cubic
+// layout of this many texels along the longest side (the fixed default before layouts were
+// automatic).
 constexpr int kAutoFloorResolution = 96;
 // The error they aim at: this many voxels of the implicit (distance grid or depth maps).
 constexpr double kAutoErrorVoxels = 0.5;

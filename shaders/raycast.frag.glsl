@@ -143,6 +143,17 @@ Sample sample_at(vec3 p_def, bool beyond_ok) {
   return s;
 }
 
+#ifdef RAYWARP_CUT_HOLLOW
+// The deformation moves p' by less than the seam tolerance.
+bool identity_at(vec3 p_def) {
+#ifdef RAYWARP_MOVES_NOTHING
+  return true;
+#else
+  return length(deformation(p_def).xyz) < u_seam;
+#endif
+}
+#endif
+
 // The surface function: f, or eq. 7's shell f^ = tau - f where f > tau / 2.
 float surface(float f) {
 #ifdef RAYWARP_CUT_THICK
@@ -370,6 +381,22 @@ void main() {
       hit = true;
       lo = tn;
       hi = tn;
+    }
+    // Entering the box's preimage, the sample before the face is not valid, so a surface within
+    // the first step past the face changes no sign between samples. Where the deformation is the
+    // identity there (the raster pass's mesh goes on into the box), a first sample inside the
+    // solid means the ray entered it since the last sample: refine for that crossing, reading f
+    // beyond the face, and it is the front surface.
+    if (!hit && !s.valid && sn.valid && sn.f > 0.0 && sn.a <= 0.0 && identity_at(pn)) {
+      float l = t, r = tn;
+      for (int k = 0; k < u_refine_steps; ++k) {
+        float mid = 0.5 * (l + r);
+        if (sample_at(o + mid * d, true).f > 0.0) r = mid; else l = mid;
+      }
+      hit = true;
+      front = true;
+      lo = l;
+      hi = r;
     }
 #else
     float v = value(sn);

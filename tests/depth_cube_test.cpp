@@ -468,7 +468,7 @@ TEST_F(DepthCubeScene, TypeAndResolution) {
   const Scene s = load({{"type", "depth_cube"}, {"resolution", 4096}});
   EXPECT_EQ(s.boxes[0].implicit.type, "depth_cube");
   EXPECT_EQ(s.boxes[0].implicit.resolution, 4096);  // beyond the distance grid's 1024
-  EXPECT_EQ(load({{"type", "depth_cube"}}).boxes[0].implicit.resolution, 128);
+  EXPECT_EQ(load({{"type", "depth_cube"}}).boxes[0].implicit.resolution, kAutoResolution);
   EXPECT_EQ(load({{"resolution", 64}}).boxes[0].implicit.type, "sdf");
 }
 

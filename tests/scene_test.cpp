@@ -113,7 +113,8 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_EQ(b.deformer.angle_deg, 90.0);
   // Defaults as scene.h and docs/scene.md state them.
   EXPECT_EQ(b.implicit.type, "sdf");
-  EXPECT_EQ(b.implicit.resolution, 128);
+  EXPECT_EQ(b.implicit.resolution, kAutoResolution);
+  EXPECT_EQ(b.implicit.max_mib, 48.0);
   EXPECT_EQ(b.implicit.band_voxels, 4.0);
   EXPECT_EQ(b.implicit.margin_voxels, 2.0);
   EXPECT_EQ(b.deformation_resolution, kAutoResolution);
@@ -791,7 +792,7 @@ std::vector<BadCase> bad_cases() {
            j["boxes"].push_back(second);
          });
        },
-       {": boxes[0].deformation.resolution = 600: the textures of all boxes would take 6.4",
+       {": boxes[0].deformation.resolution = 600: the textures of all boxes would take 6.5",
         "deformation textures 6.4"}},
       {"CutModeOnTwist",
        [] { return edit([](json& j) { box0(j)["cut_mode"] = "solid"; }); },
@@ -1229,7 +1230,7 @@ std::vector<BadCase> bad_cases() {
            box0(j)["alpha"] = {{"resolution", 1024}};
          });
        },
-       {": boxes[0].alpha.resolution = 1024: the textures of all boxes would take 4.0",
+       {": boxes[0].alpha.resolution = 1024: the textures of all boxes would take 4.1",
         "alpha maps 4.00 GiB", "more than the budget of 4.00 GiB; lower this setting"}},
       {"MemoryBudgetCountsTheAlphaMap",
        [] {

@@ -536,6 +536,20 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
         hit = true;
         lo = hi = tn;
       }
+      // Entering the box's preimage where the deformation is the identity, a first sample inside
+      // the solid: the ray entered it since the last sample (the shader's rule).
+      const bool identity = box.moves_nothing || deformation_at(box, pn).head<3>().norm() < seam;
+      if (!hit && !s.valid && sn.valid && sn.f > 0.0 && sn.a <= 0.0 && identity) {
+        double l = t, r = tn;
+        for (int k = 0; k < settings.refine_steps; ++k) {
+          double mid = 0.5 * (l + r);
+          (at(mid, true).f > 0.0 ? r : l) = mid;
+        }
+        hit = true;
+        front = true;
+        lo = l;
+        hi = r;
+      }
     } else {
       const double v = value(box, sn);
       if (v > 0.0) {
