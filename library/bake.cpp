@@ -485,8 +485,6 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   BoxTextures& tex = out.textures;
   tex.box = spec.box;
 
-  // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
-  // the grid holds only +-background, must reach past tau.
   ImplicitSpec implicit = spec.implicit;
   if (implicit.resolution == kAutoResolution) {
     // The probe takes milliseconds but runs on every bake: the session keeps its answer.
@@ -501,10 +499,11 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       keep(key, std::make_shared<const ImplicitChoice>(report.implicit_choice),
            sizeof(ImplicitChoice));
     }
+    implicit.resolution = report.implicit_choice.resolution;
   }
-  report.implicit_choice.resolution = implicit.resolution = implicit.resolution == kAutoResolution
-                                                                ? report.implicit_choice.resolution
-                                                                : implicit.resolution;
+  report.implicit_choice.resolution = implicit.resolution;
+  // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
+  // the grid holds only +-background, must reach past tau.
   if (out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell && implicit.type == "sdf") {
     const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
     const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;

@@ -115,6 +115,17 @@ void read_deformers(const JsonReader& r, const json& j, const std::string& field
   }
 }
 
+// "auto" (kAutoResolution) or an integer in [lo, hi].
+int read_resolution(const JsonReader& r, const json& j, const std::string& field, int lo = 4,
+                    int hi = 1024) {
+  if (j.is_string() && j.get<std::string>() == "auto") return kAutoResolution;
+  if (j.is_string())
+    r.fail(field, j,
+           "must be \"auto\" or an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+               "]");
+  return r.integer(j, field, lo, hi);
+}
+
 ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"type\": \"sdf\", \"resolution\": ...}");
   r.check_keys(j, field, {"type", "resolution", "max_mib", "band_voxels", "margin_voxels"});
@@ -124,17 +135,8 @@ ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string
                       " (sdf: a signed distance grid; depth_cube: six depth maps, one per face)");
   // Six maps of resolution^2 texels at most: a finer grid than a distance grid's fits.
   const int most = s.type == "depth_cube" ? 4096 : 1024;
-  if (j.contains("resolution")) {
-    const json& v = j["resolution"];
-    const std::string allowed =
-        "must be \"auto\" or an integer in [8, " + std::to_string(most) + "]";
-    if (v.is_string() && v.get<std::string>() == "auto")
-      s.resolution = kAutoResolution;
-    else if (v.is_string())
-      r.fail(child(field, "resolution"), v, allowed);
-    else
-      s.resolution = r.integer(v, child(field, "resolution"), 8, most);
-  }
+  if (j.contains("resolution"))
+    s.resolution = read_resolution(r, j["resolution"], child(field, "resolution"), 8, most);
   if (j.contains("max_mib")) {
     if (s.resolution != kAutoResolution)
       r.fail(child(field, "max_mib"), j["max_mib"],
@@ -154,13 +156,6 @@ ImplicitSpec read_implicit(const JsonReader& r, const json& j, const std::string
   if (j.contains("margin_voxels"))
     s.margin_voxels = r.number(j["margin_voxels"], child(field, "margin_voxels"), closed(0, 64));
   return s;
-}
-
-// "auto" or an integer in [4, 1024].
-int read_resolution(const JsonReader& r, const json& j, const std::string& field) {
-  if (j.is_string() && j.get<std::string>() == "auto") return kAutoResolution;
-  if (j.is_string()) r.fail(field, j, "must be \"auto\" or an integer in [4, 1024]");
-  return r.integer(j, field, 4, 1024);
 }
 
 // A texture's layout section, "deformation" or "alpha": {"resolution": "auto" | n, "max_mib"}.
