@@ -716,7 +716,7 @@ std::vector<BadCase> bad_cases() {
        [] { return std::string(100000, '[') + std::string(100000, ']'); },
        {": [0][0][0]", "deeper than 64 levels"}},
       {"NestedTooDeepInAField",
-       [] { return "{\"render\": " + std::string(70, '[') + std::string(70, ']') + "}"; },
+       [] { return std::string("{\"render\": ").append(70, '[').append(70, ']').append("}"); },
        {": render[0][0]", "deeper than 64 levels"}},
       {"NotAnObject",
        [] { return std::string("[1, 2]"); },
