@@ -123,7 +123,10 @@ struct Sample {
   bool valid;
 };
 
-// `beyond_ok`: the previous sample lay in the box, so (when D = 0) a point beyond it is read.
+// `beyond_ok`: the previous sample lay in the box. Then, where D is the identity (|D| below the
+// seam tolerance), a point beyond the box is read (D = 0 everywhere: beyond every face), and so is
+// a point within a deformation texel of a face where the interpolated w falls below 1/2: the texel
+// beyond the face holds no preimage, but the point's preimage is itself, in the box.
 Sample sample_at(vec3 p_def, bool beyond_ok) {
   Sample s;
 #ifdef RAYWARP_MOVES_NOTHING
@@ -132,7 +135,9 @@ Sample sample_at(vec3 p_def, bool beyond_ok) {
 #else
   vec4 d = deformation(p_def);
   vec3 p = p_def + d.xyz;
-  s.valid = d.w >= 0.5 && in_box(p);
+  vec3 past = abs(p_def) - u_half_extents + u_def_spacing;
+  bool near_face = max(max(past.x, past.y), past.z) > 0.0;
+  s.valid = in_box(p) && (d.w >= 0.5 || (beyond_ok && near_face && length(d.xyz) < u_seam));
   s.f = s.valid ? distance_at(p) : -u_background;
 #endif
 #ifdef RAYWARP_CUT

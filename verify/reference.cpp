@@ -60,12 +60,16 @@ struct Sample {
   bool valid = false;
 };
 
-// `beyond_ok`: the previous sample lay in the box, so (when D = 0) a point beyond it is read.
 // D and w at p', read at M p' (BoxTextures::texture_map), as the shader's deformation().
 Eigen::Vector4d deformation_at(const BoxTextures& box, const Vec3& p_def) {
   const Eigen::Vector4d q = box.texture_map * p_def.homogeneous();
   return box.deformation.grid.sample(q.head<3>());
 }
+
+// `beyond_ok`: the previous sample lay in the box. Then, where D is the identity (|D| below the
+// seam tolerance), a point beyond the box is read (D = 0 everywhere: beyond every face), and so is
+// a point within a deformation texel of a face where the interpolated w falls below 1/2: the texel
+// beyond the face holds no preimage, but the point's preimage is itself, in the box.
 
 Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
   Sample s;
@@ -75,7 +79,11 @@ Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
   } else {
     Eigen::Vector4d dv = deformation_at(box, p_def);
     Vec3 p = p_def + dv.head<3>();
-    s.valid = dv.w() >= 0.5 && box.box.contains_local(p);
+    const Vec3& h = box.box.half_extents;
+    const bool near_face = (p_def.cwiseAbs() - h + box.deformation.grid.spacing).maxCoeff() > 0.0;
+    s.valid = box.box.contains_local(p) &&
+              (dv.w() >= 0.5 || (beyond_ok && near_face &&
+                                 dv.head<3>().norm() < kSeamVoxels * implicit_spacing(box)));
     s.f = s.valid ? implicit_value(box, p) : -implicit_background(box);
   }
   if (box.has_cut) s.a = box.alpha.grid.sample(p_def).value();
