@@ -42,10 +42,6 @@ const Known kKnownShort[] = {
     {"horse_legs_bend", 0.980, 0.01,
      "the bend folds 17 % of the box (det J <= 0; raywarp warns and renders one branch, the "
      "ground truth shows both); a smaller angle_deg or a longer box does not fold"},
-    {"scan_trex_incision", 0.988, 0.01,
-     "the range scan's teeth and claws are thin open sheets, which the shape-diameter probe of "
-     "the automatic grid does not see (no chord across a sheet); implicit.resolution 256 "
-     "reaches IoU 0.9912"},
 };
 
 gl::Context& context() {
