@@ -14,6 +14,7 @@
 #include "cli/stability.h"
 #include "cli/study.h"
 #include "deformers/registry.h"
+#include "editor/editor.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
@@ -321,6 +322,33 @@ int main(int argc, char** argv) {
   deformers_cmd->add_flag("--markdown", deformers_markdown,
                           "Print the table of docs/scene.md (Markdown) instead of text");
 
+  editor::EditOptions eopt;
+  auto* edit = app.add_subcommand(
+      "edit", "Open a window to place boxes, shape deformations and preview cuts, live");
+  edit->add_option("input", eopt.input,
+                   "A scene file (.json), or a mesh file: then a box with a twist is placed on "
+                   "its upper half and the scene is saved beside it as NAME.json")
+      ->required();
+  edit->add_option("--width", eopt.width, "Window width in pixels")
+      ->check(CLI::Range(400, 8192))
+      ->capture_default_str();
+  edit->add_option("--height", eopt.height, "Window height in pixels")
+      ->check(CLI::Range(300, 8192))
+      ->capture_default_str();
+  edit->add_option("--status-file", eopt.status_file,
+                   "Rewrite FILE (JSON: state idle or baking, the state's number, widgets' "
+                   "rectangles; docs/editor.md) at every change, for scripts and tests");
+  edit->add_option("--frame-log", eopt.frame_log,
+                   "Write one line per shown frame to FILE: milliseconds since start, render "
+                   "milliseconds (0 when the viewport was not rendered again)");
+  edit->add_option("--cache-dir", eopt.cache_dir, "Bake cache folder (as for render)");
+  edit->add_flag("--no-cache", eopt.no_cache, "Read and store no bake cache entry");
+  edit->footer(
+      "Mouse: left drag orbits, middle drag (or Shift + left) pans, the wheel or a right drag "
+      "zooms; F frames the mesh.\nKeys: Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save (the camera "
+      "inline, at the viewport's size), Ctrl+Q quit.\nExample: raywarp edit "
+      "examples/bunny_twist.json");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -331,6 +359,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (*render) return run_render(ropt);
+    if (*edit) return editor::run_editor(eopt);
     if (*info) return run_info(info_path);
     if (*deformers_cmd) {
       if (deformers_markdown) {

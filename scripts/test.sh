@@ -6,7 +6,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
-scripts/setup.sh "$build" "$@"
+# The editor's test drives a window on a virtual X server: Xvfb, xdotool, ImageMagick's import.
+RAYWARP_EXTRA_PACKAGES="${RAYWARP_EXTRA_PACKAGES:-} xvfb xdotool imagemagick" scripts/setup.sh "$build" "$@"
 cd "$build"
 labels=()
 [ -n "${RAYWARP_TEST_LABELS:-}" ] && labels=(-L "$RAYWARP_TEST_LABELS")

@@ -1,0 +1,628 @@
+// The editor's window: GLFW for the window and input, Dear ImGui for the panels, gl::Renderer
+// for the viewport (rendered into its own framebuffer, read back and shown as a texture under the
+// panels), editor::Baker for the bakes, editor::Document for the scene and its history.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+#include <imgui_internal.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "base/atomic_file.h"
+#include "base/error.h"
+#include "deformers/registry.h"
+#include "editor/baker.h"
+#include "editor/document.h"
+#include "editor/editor.h"
+#include "gl/gl_api.h"
+#include "gl/renderer.h"
+#include "library/mesh.h"
+
+namespace raywarp::editor {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr float kPanelWidth = 360.0f;
+constexpr float kStatusHeight = 28.0f;
+
+struct Rect {
+  float x = 0, y = 0, w = 0, h = 0;
+  bool contains(double px, double py) const {
+    return px >= x && py >= y && px < x + w && py < y + h;
+  }
+};
+
+struct KeyPress {
+  int key, mods;
+};
+
+std::deque<KeyPress>& key_queue() {
+  static std::deque<KeyPress> q;
+  return q;
+}
+
+std::vector<std::string>& dropped_files() {
+  static std::vector<std::string> files;
+  return files;
+}
+
+void on_key(GLFWwindow*, int key, int, int action, int mods) {
+  if (action == GLFW_PRESS || action == GLFW_REPEAT) key_queue().push_back({key, mods});
+}
+
+void on_drop(GLFWwindow*, int count, const char** paths) {
+  for (int i = 0; i < count; ++i) dropped_files().push_back(paths[i]);
+}
+
+class Editor {
+ public:
+  Editor(const EditOptions& options, GLFWwindow* window)
+      : opt_(options), window_(window), start_(std::chrono::steady_clock::now()) {
+    std::unique_ptr<BakeCache> cache;
+    if (!options.no_cache) {
+      const fs::path dir =
+          options.cache_dir.empty() ? BakeCache::default_dir() : fs::path(options.cache_dir);
+      if (!dir.empty()) cache = std::make_unique<BakeCache>(dir);
+    }
+    baker_ = std::make_unique<Baker>(std::move(cache));
+    renderer_ = std::make_unique<gl::Renderer>();
+    if (!options.frame_log.empty()) frame_log_.open(options.frame_log, std::ios::trunc);
+    open(options.input);
+    if (!doc_) throw Error(message_);
+  }
+
+  ~Editor() {
+    if (texture_) gl::glDeleteTextures(1, &texture_);
+  }
+
+  // One turn of the loop: events, results, the viewport, the panels.
+  void frame() {
+    for (const std::string& file : dropped_files()) open(file);
+    dropped_files().clear();
+    take_result();
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    int fw, fh;
+    glfwGetFramebufferSize(window_, &fw, &fh);
+    view_ =
+        Rect{kPanelWidth, 0, std::max(1.0f, fw - kPanelWidth), std::max(1.0f, fh - kStatusHeight)};
+    handle_keys();
+    handle_mouse();
+    working_ = doc_->json();
+    panel(float(fh));
+    status_bar(float(fw), float(fh));
+    commit_edit();
+    const double render_ms = render_viewport();
+    ImGui::Render();
+    gl::glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl::glViewport(0, 0, fw, fh);
+    gl::glClearColor(0.16f, 0.16f, 0.18f, 1.0f);
+    gl::glClear(GL_COLOR_BUFFER_BIT);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    glfwSwapBuffers(window_);
+    if (frame_log_) {
+      frame_log_ << since_start_ms() << " " << render_ms << "\n";
+      frame_log_.flush();
+    }
+    publish();
+  }
+
+  bool busy() const { return baker_->progress().busy || shown_ < generation_; }
+
+ private:
+  EditOptions opt_;
+  GLFWwindow* window_;
+  std::chrono::steady_clock::time_point start_;
+  std::unique_ptr<Baker> baker_;
+  std::unique_ptr<gl::Renderer> renderer_;
+  std::optional<Document> doc_;
+  json working_;
+  ImGuiID last_edit_id_ = 0;
+  long generation_ = 0, shown_ = -1;
+  std::shared_ptr<const PreparedScene> prepared_;
+  const Mesh* renderer_mesh_ = nullptr;
+  std::optional<Camera> camera_;
+  bool dirty_ = true;
+  GLuint texture_ = 0;
+  Rect view_;
+  Rect image_rect_;  // where the last image lies (its size may lag the viewport's by a frame)
+  std::string message_;
+  double frame_ms_ = 0, bake_s_ = 0;
+  size_t texture_bytes_ = 0;
+  std::vector<std::string> warnings_;
+  int selected_ = 0;
+  std::map<std::string, Rect> widgets_;
+  std::string published_;
+  std::string saved_;
+  std::ofstream frame_log_;
+  int drag_button_ = -1;
+
+  double since_start_ms() const {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
+        .count();
+  }
+
+  // Opens a scene or a mesh; on failure the message goes to the status line and the current
+  // document stays.
+  void open(const std::string& file) {
+    try {
+      Document d = Document::open(file);
+      doc_ = std::move(d);
+      camera_ = doc_->scene().camera;
+      selected_ = 0;
+      message_ = "opened " + file;
+      submit();
+    } catch (const Error& e) {
+      message_ = e.what();
+    } catch (const fs::filesystem_error& e) {
+      message_ = e.what();
+    }
+  }
+
+  void submit() {
+    ++generation_;
+    baker_->submit(doc_->scene(), generation_);
+  }
+
+  void take_result() {
+    std::optional<Baker::Result> r = baker_->take();
+    if (!r || r->generation <= shown_) return;
+    bake_s_ = r->seconds;
+    if (!r->prepared) {
+      message_ = r->error;
+      shown_ = r->generation;  // that state is done: it failed, the last good image stays
+      return;
+    }
+    prepared_ = r->prepared;
+    warnings_.clear();
+    for (const BakedBox& b : prepared_->boxes)
+      for (const std::string& w : b.report.warning_messages()) warnings_.push_back(w);
+    try {
+      if (renderer_mesh_ != &prepared_->mesh()) {
+        renderer_->set_mesh(prepared_->mesh());
+        renderer_mesh_ = &prepared_->mesh();
+      }
+      renderer_->set_boxes(prepared_->textures());
+      texture_bytes_ = renderer_->texture_bytes();
+    } catch (const Error& e) {
+      message_ = e.what();
+    }
+    if (!camera_) camera_ = frame_bounds(mesh_bounds(prepared_->mesh()));
+    shown_ = r->generation;
+    dirty_ = true;
+  }
+
+  Camera view_camera() const {
+    Camera c = *camera_;
+    c.width = int(view_.w);
+    c.height = int(view_.h);
+    return c;
+  }
+
+  // Renders the viewport when something changed; returns the frame time (0 when not rendered).
+  double render_viewport() {
+    if (!prepared_ || !camera_) return 0.0;
+    const bool resized = int(image_rect_.w) != int(view_.w) || int(image_rect_.h) != int(view_.h);
+    if (!dirty_ && !resized) {
+      draw_image();
+      return 0.0;
+    }
+    dirty_ = false;
+    const Camera c = view_camera();
+    try {
+      gl::FrameStats stats;
+      const Image image = renderer_->render(c, c.width, c.height, doc_->scene().render, &stats);
+      frame_ms_ = stats.milliseconds;
+      if (!texture_) {
+        gl::glGenTextures(1, &texture_);
+        gl::glBindTexture(GL_TEXTURE_2D, texture_);
+        gl::glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        gl::glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      }
+      gl::glBindTexture(GL_TEXTURE_2D, texture_);
+      gl::glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+      gl::glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, image.width, image.height, 0, GL_RGBA,
+                       GL_UNSIGNED_BYTE, image.rgba.data());
+      image_rect_ = Rect{view_.x, view_.y, float(image.width), float(image.height)};
+    } catch (const Error& e) {
+      message_ = e.what();
+    }
+    draw_image();
+    return frame_ms_;
+  }
+
+  void draw_image() {
+    if (!texture_) return;
+    ImGui::GetBackgroundDrawList()->AddImage(
+        reinterpret_cast<ImTextureID>(static_cast<intptr_t>(texture_)),
+        ImVec2(image_rect_.x, image_rect_.y),
+        ImVec2(image_rect_.x + image_rect_.w, image_rect_.y + image_rect_.h));
+  }
+
+  void undo() {
+    if (!doc_->can_undo()) return;
+    doc_->undo();
+    message_ = "undo";
+    submit();
+  }
+  void redo() {
+    if (!doc_->can_redo()) return;
+    doc_->redo();
+    message_ = "redo";
+    submit();
+  }
+  void save() {
+    try {
+      doc_->save(doc_->path(), view_camera());
+      saved_ = doc_->path().string();
+      message_ = "saved " + saved_;
+    } catch (const Error& e) {
+      message_ = e.what();
+    }
+  }
+  void frame_view() {
+    if (!prepared_ || !camera_) return;
+    const Camera f = frame_bounds(mesh_bounds(prepared_->mesh()), camera_->fov_y_deg);
+    const double distance = (f.eye - f.target).norm();
+    const Eigen::Vector3d dir = (camera_->eye - camera_->target).normalized();
+    camera_->target = f.target;
+    camera_->eye = f.target + distance * dir;
+    camera_->near_plane = f.near_plane;
+    camera_->far_plane = f.far_plane;
+    dirty_ = true;
+  }
+
+  void handle_keys() {
+    const bool typing = ImGui::GetIO().WantTextInput;
+    for (const KeyPress& k : key_queue()) {
+      const bool ctrl = k.mods & GLFW_MOD_CONTROL, shift = k.mods & GLFW_MOD_SHIFT;
+      if (ctrl && k.key == GLFW_KEY_Z && shift)
+        redo();
+      else if (ctrl && k.key == GLFW_KEY_Z)
+        undo();
+      else if (ctrl && k.key == GLFW_KEY_Y)
+        redo();
+      else if (ctrl && k.key == GLFW_KEY_S)
+        save();
+      else if (ctrl && k.key == GLFW_KEY_Q)
+        glfwSetWindowShouldClose(window_, GLFW_TRUE);
+      else if (!typing && !ctrl && k.key == GLFW_KEY_F)
+        frame_view();
+    }
+    key_queue().clear();
+  }
+
+  // Orbit (left drag), pan (middle drag, or Shift + left), dolly (right drag, wheel).
+  void handle_mouse() {
+    ImGuiIO& io = ImGui::GetIO();
+    if (!camera_) return;
+    if (drag_button_ < 0 && !io.WantCaptureMouse && view_.contains(io.MousePos.x, io.MousePos.y)) {
+      for (int b = 0; b < 3; ++b)
+        if (ImGui::IsMouseClicked(b)) drag_button_ = b;
+      if (io.MouseWheel != 0.0f) dolly(std::pow(0.9, io.MouseWheel));
+    }
+    if (drag_button_ >= 0 && !ImGui::IsMouseDown(drag_button_)) drag_button_ = -1;
+    if (drag_button_ < 0) return;
+    const double dx = io.MouseDelta.x, dy = io.MouseDelta.y;
+    if (dx == 0.0 && dy == 0.0) return;
+    Camera& c = *camera_;
+    const Eigen::Vector3d up = c.up.normalized();
+    Eigen::Vector3d offset = c.eye - c.target;
+    const Eigen::Vector3d forward = -offset.normalized();
+    const Eigen::Vector3d right = forward.cross(up).normalized();
+    const Eigen::Vector3d screen_up = right.cross(forward);
+    if (drag_button_ == 2) {
+      dolly(std::exp(0.01 * dy));
+      return;
+    }
+    if (drag_button_ == 1 || io.KeyShift) {
+      const double scale =
+          2.0 * offset.norm() * std::tan(0.5 * c.fov_y_deg * M_PI / 180.0) / view_.h;
+      const Eigen::Vector3d move = (-dx * right + dy * screen_up) * scale;
+      c.eye += move;
+      c.target += move;
+    } else {
+      // Turntable: about the up axis, then about the right axis, never over the pole.
+      offset = Eigen::AngleAxisd(-0.008 * dx, up) * offset;
+      const Eigen::Vector3d r = (-offset).cross(up).normalized();
+      const Eigen::Vector3d tilted = Eigen::AngleAxisd(-0.008 * dy, r) * offset;
+      if (std::abs(tilted.normalized().dot(up)) < 0.995) offset = tilted;
+      c.eye = c.target + offset;
+    }
+    dirty_ = true;
+  }
+
+  void dolly(double factor) {
+    Camera& c = *camera_;
+    const double before = (c.eye - c.target).norm();
+    c.eye = c.target + (c.eye - c.target) * factor;
+    const double after = before * factor;
+    // Keep the mesh between the planes: they move with the eye.
+    c.near_plane = std::max(c.near_plane + (after - before), after * 1e-3);
+    c.far_plane = std::max(c.far_plane + (after - before), c.near_plane * 2.0);
+    dirty_ = true;
+  }
+
+  void remember(const std::string& name) {
+    const ImVec2 a = ImGui::GetItemRectMin(), b = ImGui::GetItemRectMax();
+    widgets_[name] = Rect{a.x, a.y, b.x - a.x, b.y - a.y};
+  }
+
+  // The parameters of one deformer object (JSON `d`) of `type`, read from and written to `d`;
+  // the values shown when a key is absent are the parsed spec's (the defaults).
+  void deformer_fields(json& d, const DeformerType& type, const DeformerSpec& spec,
+                       const std::string& prefix) {
+    for (const ParamDecl& p : type.params) {
+      const std::string label = p.key + "##" + prefix;
+      if (p.kind == ParamKind::Number && std::holds_alternative<double DeformerSpec::*>(p.field)) {
+        double v = d.contains(p.key) && d[p.key].is_number()
+                       ? d[p.key].get<double>()
+                       : spec.*std::get<double DeformerSpec::*>(p.field);
+        bool changed;
+        if (std::isfinite(p.range.lo) && std::isfinite(p.range.hi) && !p.range.hi_is_sanity_limit)
+          changed = ImGui::SliderScalar(label.c_str(), ImGuiDataType_Double, &v, &p.range.lo,
+                                        &p.range.hi, "%.4g");
+        else
+          changed = ImGui::DragScalar(label.c_str(), ImGuiDataType_Double, &v,
+                                      float(std::max(std::abs(v), 1e-3) * 0.005), nullptr, nullptr,
+                                      "%.4g");
+        remember(prefix + p.key);
+        if (changed) d[p.key] = v;
+      } else if (p.kind == ParamKind::Axis &&
+                 std::holds_alternative<int DeformerSpec::*>(p.field)) {
+        int axis = spec.*std::get<int DeformerSpec::*>(p.field);
+        const char* names[] = {"x", "y", "z"};
+        if (ImGui::Combo(label.c_str(), &axis, names, 3)) d[p.key] = names[axis];
+        remember(prefix + p.key);
+      } else if (d.contains(p.key)) {
+        ImGui::TextDisabled("%s: %s", p.key.c_str(), d[p.key].dump().c_str());
+      }
+    }
+  }
+
+  void panel(float height) {
+    widgets_.clear();
+    ImGui::SetNextWindowPos(ImVec2(0, 0));
+    ImGui::SetNextWindowSize(ImVec2(kPanelWidth, height - kStatusHeight));
+    ImGui::Begin("raywarp", nullptr,
+                 ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
+                     ImGuiWindowFlags_NoTitleBar);
+    ImGui::TextWrapped("%s", doc_->path().string().c_str());
+    ImGui::BeginDisabled(!doc_->can_undo());
+    if (ImGui::Button("Undo")) undo();
+    ImGui::EndDisabled();
+    remember("undo");
+    ImGui::SameLine();
+    ImGui::BeginDisabled(!doc_->can_redo());
+    if (ImGui::Button("Redo")) redo();
+    ImGui::EndDisabled();
+    remember("redo");
+    ImGui::SameLine();
+    if (ImGui::Button("Save")) save();
+    remember("save");
+    ImGui::SameLine();
+    if (ImGui::Button("Frame")) frame_view();
+    remember("frame");
+    ImGui::Separator();
+
+    json& boxes = working_["boxes"];
+    const Scene& scene = doc_->scene();
+    if (selected_ >= int(boxes.size())) selected_ = 0;
+    for (size_t i = 0; i < boxes.size() && i < scene.boxes.size(); ++i) {
+      const std::string name =
+          "box " + std::to_string(i) + ": " + describe_spec(scene.boxes[i].deformer);
+      if (ImGui::Selectable(name.c_str(), selected_ == int(i))) selected_ = int(i);
+      remember("box." + std::to_string(i));
+    }
+    if (!boxes.empty() && selected_ < int(scene.boxes.size())) {
+      ImGui::Separator();
+      json& box = boxes[selected_];
+      const BoxSpec& spec = scene.boxes[selected_];
+      for (const char* key : {"centre", "half_extents", "rotation_deg", "min", "max"}) {
+        if (!box.contains(key) || !box[key].is_array() || box[key].size() != 3) continue;
+        double v[3];
+        for (int k = 0; k < 3; ++k) v[k] = box[key][k].get<double>();
+        const double extent = std::max(1e-3, spec.box.half_extents.maxCoeff());
+        if (ImGui::DragScalarN(key, ImGuiDataType_Double, v, 3,
+                               std::string(key) == "rotation_deg" ? 0.5f : float(0.005 * extent),
+                               nullptr, nullptr, "%.4g"))
+          box[key] = {v[0], v[1], v[2]};
+        remember(std::string("box.") + key);
+      }
+      json& d = box["deformer"];
+      if (d.is_object()) {
+        const DeformerType* type = find_deformer_type(d.value("type", ""));
+        int current = 0;
+        std::vector<const char*> names;
+        for (size_t t = 0; t < deformer_types().size(); ++t) {
+          names.push_back(deformer_types()[t].name.c_str());
+          if (type == &deformer_types()[t]) current = int(t);
+        }
+        if (ImGui::Combo("deformer", &current, names.data(), int(names.size()))) {
+          const DeformerType& chosen = deformer_types()[current];
+          json fresh = chosen.examples.empty() ? json::object() : chosen.examples.front();
+          fresh["type"] = chosen.name;
+          d = fresh;
+          type = nullptr;  // its fields follow next frame, once parsed
+        }
+        remember("deformer");
+        if (type) {
+          deformer_fields(d, *type, spec.deformer, "param.");
+          if (type->cuts) {
+            const char* modes[] = {"hollow", "solid", "thick_shell"};
+            int mode = spec.cut_mode == CutMode::Hollow  ? 0
+                       : spec.cut_mode == CutMode::Solid ? 1
+                                                         : 2;
+            if (ImGui::Combo("cut_mode", &mode, modes, 3)) {
+              box["cut_mode"] = modes[mode];
+              if (mode == 2 && !box.contains("shell_thickness"))
+                box["shell_thickness"] = 0.1 * spec.box.half_extents.minCoeff();
+            }
+            remember("cut_mode");
+          }
+        }
+      } else {
+        ImGui::TextDisabled("deformer list: %s", d.dump().c_str());
+      }
+    }
+    ImGui::Separator();
+    json& render = working_["render"];
+    const char* methods[] = {"threshold", "linear", "jacobian", "bounded"};
+    int method = 0;
+    for (int m = 0; m < 4; ++m)
+      if (scene.render.sampling == methods[m]) method = m;
+    if (ImGui::Combo("sampling", &method, methods, 4)) render["sampling"] = methods[method];
+    remember("sampling");
+    if (render.is_null()) working_.erase("render");
+    ImGui::Separator();
+    ImGui::TextWrapped(
+        "Orbit: left drag. Pan: middle drag or Shift + left drag. Zoom: wheel or right drag. "
+        "F: frame the mesh. Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save, Ctrl+Q quit. Drop a "
+        "scene or mesh file to open it.");
+    ImGui::End();
+  }
+
+  // Takes the panel's changes as one edit; the steps of one drag of a widget are one edit.
+  void commit_edit() {
+    const ImGuiID active = ImGui::GetActiveID();
+    if (working_ != doc_->json()) {
+      const bool merge = active != 0 && active == last_edit_id_;
+      const std::string error = doc_->edit(working_, merge);
+      if (error.empty()) {
+        message_.clear();
+        submit();
+      } else {
+        message_ = error;
+      }
+      last_edit_id_ = active;
+    }
+    if (active == 0) last_edit_id_ = 0;
+  }
+
+  void status_bar(float width, float height) {
+    ImGui::SetNextWindowPos(ImVec2(0, height - kStatusHeight));
+    ImGui::SetNextWindowSize(ImVec2(width, kStatusHeight));
+    ImGui::Begin("status", nullptr,
+                 ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
+                     ImGuiWindowFlags_NoTitleBar | ImGuiWindowFlags_NoScrollbar);
+    const Baker::Progress p = baker_->progress();
+    if (p.busy) {
+      ImGui::ProgressBar(float(p.fraction), ImVec2(160, 0),
+                         p.stage.empty() ? "baking" : p.stage.c_str());
+      ImGui::SameLine();
+    }
+    ImGui::Text("frame %.1f ms | bake %.2f s | textures %.1f MiB%s%s%s", frame_ms_, bake_s_,
+                texture_bytes_ / double(1 << 20), warnings_.empty() ? "" : " | ",
+                warnings_.empty() ? "" : warnings_.front().c_str(),
+                message_.empty() ? "" : (" | " + message_).c_str());
+    ImGui::End();
+  }
+
+  // The window's title and the status file say where the editor is: "idle #N" once state N (the
+  // count of states submitted) is on screen.
+  void publish() {
+    const bool is_busy = busy();
+    json status = {{"state", is_busy ? "baking" : "idle"},
+                   {"generation", generation_},
+                   {"shown", shown_},
+                   {"edits", doc_->edits()},
+                   {"can_undo", doc_->can_undo()},
+                   {"can_redo", doc_->can_redo()},
+                   {"scene", doc_->path().string()},
+                   {"saved", saved_},
+                   {"message", message_},
+                   {"frame_ms", frame_ms_},
+                   {"bake_s", bake_s_},
+                   {"texture_mib", texture_bytes_ / double(1 << 20)},
+                   {"cancelled", baker_->cancelled()},
+                   {"viewport", {image_rect_.x, image_rect_.y, image_rect_.w, image_rect_.h}}};
+    for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
+    int wx = 0, wy = 0;
+    glfwGetWindowPos(window_, &wx, &wy);
+    status["window"] = {wx, wy};  // where window coordinates (all the rectangles) start on screen
+    const std::string text = status.dump();
+    if (text == published_) return;
+    published_ = text;
+    const std::string title = "raywarp edit: " + doc_->path().filename().string() + ": " +
+                              (is_busy ? "baking" : "idle") + " #" + std::to_string(generation_);
+    glfwSetWindowTitle(window_, title.c_str());
+    if (!opt_.status_file.empty()) {
+      try {
+        write_file_atomic(opt_.status_file, text + "\n");
+      } catch (const Error& e) {
+        message_ = e.what();
+      }
+    }
+  }
+};
+
+void glfw_error(int code, const char* text) {
+  (void)code;
+  (void)text;  // glfwInit's and glfwCreateWindow's failures are reported by their callers
+}
+
+}  // namespace
+
+int run_editor(const EditOptions& options) {
+  (void)Document::open(options.input);  // a bad file is said before any window opens
+  glfwSetErrorCallback(glfw_error);
+  if (!glfwInit())
+    throw Error(
+        "edit: cannot open a window: no display (is DISPLAY set? under no X server, run "
+        "it in xvfb-run)");
+  struct Terminate {
+    ~Terminate() { glfwTerminate(); }
+  } terminate;
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  GLFWwindow* window =
+      glfwCreateWindow(options.width, options.height, "raywarp edit", nullptr, nullptr);
+  if (!window) throw Error("edit: cannot make an OpenGL 4.5 core window on this display");
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(0);
+  gl::load_gl([](const char* name) { return reinterpret_cast<void*>(glfwGetProcAddress(name)); });
+  glfwSetKeyCallback(window, on_key);
+  glfwSetDropCallback(window, on_drop);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the user's folder
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window, true);  // chains to the callbacks above
+  ImGui_ImplOpenGL3_Init("#version 450");
+  int code = 0;
+  {
+    Editor editor(options, window);
+    while (!glfwWindowShouldClose(window)) {
+      // While a bake runs, wake often for its progress; otherwise wait for input.
+      if (editor.busy())
+        glfwWaitEventsTimeout(0.03);
+      else
+        glfwWaitEventsTimeout(0.25);
+      editor.frame();
+    }
+  }
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  return code;
+}
+
+}  // namespace raywarp::editor

@@ -1,0 +1,288 @@
+// `raywarp edit` driven as a user drives it: a real X server (Xvfb), real mouse and key events
+// (xdotool), screenshots of the screen (ImageMagick's import). The test waits on the state the
+// editor publishes (--status-file: "idle" once state N is on screen), never on sleeps, and checks
+// the viewport's pixels: an edit changes the deformed region, undo restores it, redo brings the
+// edit back, and the saved scene renders through `raywarp render` to the viewport's image.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <stb/stb_image.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/temp_folder.h"
+
+namespace raywarp {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+bool have(const char* program) {
+  return std::system(("command -v " + std::string(program) + " > /dev/null 2>&1").c_str()) == 0;
+}
+
+// A child process started through sh, whose pid is its first line of output.
+struct Child {
+  pid_t pid = -1;
+  FILE* out = nullptr;
+  std::string first_line;
+  explicit Child(const std::string& command) {
+    out = popen(("sh -c 'echo $$; exec " + command + "'").c_str(), "r");
+    if (!out) return;
+    char line[64] = {};
+    if (std::fgets(line, sizeof line, out)) pid = std::atoi(line);
+  }
+  bool running() {
+    int status = 0;
+    if (pid > 0 && waitpid(pid, &status, WNOHANG) == pid) pid = -1;
+    return pid > 0;
+  }
+  std::string read_line() {
+    char line[256] = {};
+    return out && std::fgets(line, sizeof line, out) ? std::string(line) : std::string();
+  }
+  ~Child() {
+    if (pid > 0) kill(pid, SIGTERM);
+    if (out) pclose(out);
+  }
+};
+
+struct Screenshot {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgb;
+};
+
+// The share of pixels of the rectangle [x, y, w, h] whose channels all lie within `tolerance`.
+double share_within(const Screenshot& a, const Screenshot& b, const json& rect, int tolerance) {
+  const int x0 = rect[0].get<int>(), y0 = rect[1].get<int>(), w = rect[2].get<int>(),
+            h = rect[3].get<int>();
+  long same = 0, total = 0;
+  for (int y = y0; y < y0 + h; ++y)
+    for (int x = x0; x < x0 + w; ++x) {
+      bool near = true;
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = (static_cast<size_t>(y) * a.width + x) * 3 + c;
+        near = near && std::abs(int(a.rgb[i]) - int(b.rgb[i])) <= tolerance;
+      }
+      same += near;
+      ++total;
+    }
+  return total ? double(same) / double(total) : 0.0;
+}
+
+Screenshot read_rgb(const fs::path& file) {
+  Screenshot s;
+  int channels = 0;
+  unsigned char* data = stbi_load(file.c_str(), &s.width, &s.height, &channels, 3);
+  if (data) {
+    s.rgb.assign(data, data + static_cast<size_t>(s.width) * s.height * 3);
+    stbi_image_free(data);
+  }
+  return s;
+}
+
+class EditorSession {
+ public:
+  explicit EditorSession(const fs::path& folder) : folder_(folder) {}
+
+  bool start(const fs::path& scene) {
+    xvfb_ = std::make_unique<Child>(
+        "Xvfb -displayfd 1 -screen 0 1280x800x24 -nolisten tcp 2>/dev/null");
+    const std::string display = xvfb_->read_line();
+    if (display.empty()) return false;
+    display_ = std::string(":").append(std::to_string(std::atoi(display.c_str())));
+    status_ = folder_ / "status.json";
+    editor_ = std::make_unique<Child>(
+        "env DISPLAY=" + display_ + " " + RAYWARP_BINARY + " edit " + scene.string() +
+        " --width 1280 --height 800 --no-cache --status-file " + status_.string() +
+        " --frame-log " + (folder_ / "frames.log").string() + " > " +
+        (folder_ / "editor.log").string() + " 2>&1");
+    return editor_->pid > 0;
+  }
+
+  // Waits (polling the status file) until `ready` holds for it; at most `seconds`.
+  json wait_for(const std::function<bool(const json&)>& ready, double seconds = 120) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    json last;
+    while (std::chrono::steady_clock::now() < end) {
+      if (!editor_->running()) {
+        ADD_FAILURE() << "the editor exited; its log: " << log();
+        return last;
+      }
+      std::ifstream in(status_);
+      json s = json::parse(in, nullptr, false);
+      if (!s.is_discarded()) {
+        last = s;
+        if (ready(s)) return s;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ADD_FAILURE() << "the editor did not reach the state; last status: " << last.dump()
+                  << "\nits log: " << log();
+    return last;
+  }
+
+  // Idle with state number > after, and the next frame drawn (two publications apart).
+  json wait_idle_after(long after) {
+    return wait_for([after](const json& s) {
+      return s.value("state", "") == "idle" && s.value("generation", 0L) > after &&
+             s.value("shown", -1L) == s.value("generation", 0L);
+    });
+  }
+
+  void xdotool(const std::string& args) {
+    const std::string cmd = "DISPLAY=" + display_ + " xdotool " + args;
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  }
+
+  // Into editor_test_images/ of the working folder, kept for a look.
+  Screenshot screenshot(const std::string& name) {
+    // The editor draws its frame after publishing the state: let one more frame through.
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    fs::create_directories("editor_test_images");
+    const fs::path file = fs::absolute("editor_test_images") / (name + ".png");
+    const std::string cmd =
+        "import -display " + display_ + " -window root PNG24:" + file.string() + " 2>/dev/null";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    return read_rgb(file);
+  }
+
+  std::string log() const {
+    std::ifstream in(folder_ / "editor.log");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+
+  void stop() { editor_.reset(); }
+
+ private:
+  fs::path folder_, status_;
+  std::string display_;
+  std::unique_ptr<Child> xvfb_, editor_;
+};
+
+// The widget's centre in screen coordinates.
+std::string centre_of(const json& status, const std::string& widget, int dx = 0) {
+  const json& r = status["widgets"][widget];
+  const int x = status["window"][0].get<int>() + int(r[0].get<double>() + 0.5 * r[2].get<double>());
+  const int y = status["window"][1].get<int>() + int(r[1].get<double>() + 0.5 * r[3].get<double>());
+  return std::to_string(x + dx) + " " + std::to_string(y);
+}
+
+class Editor : public TempFolderTest {};
+
+TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
+  for (const char* tool : {"Xvfb", "xdotool", "import"})
+    ASSERT_TRUE(have(tool)) << tool
+                            << " is not installed (scripts/setup.sh installs xvfb, "
+                               "xdotool and imagemagick)";
+  // The example scene, its mesh path made absolute so that the copy finds it.
+  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
+  json scene = json::parse(std::ifstream(examples / "bunny_twist.json"));
+  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
+  if (scene["camera"].is_string())  // a camera file: inline it
+    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
+  const fs::path file = dir_ / "scene.json";
+  std::ofstream(file) << scene.dump(2);
+
+  EditorSession editor(dir_);
+  ASSERT_TRUE(editor.start(file)) << "cannot start Xvfb or the editor";
+  json s = editor.wait_idle_after(0);
+  ASSERT_TRUE(s.contains("widgets")) << editor.log();
+  const json viewport = s["viewport"];
+  const Screenshot before = editor.screenshot("0_opened");
+  ASSERT_GT(before.width, 0);
+
+  // Drag the twist angle's field to the right: one edit, whatever the number of steps.
+  const long opened = s["generation"].get<long>();
+  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg") + " mousedown 1");
+  for (int step = 1; step <= 4; ++step)
+    editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", 10 * step));
+  editor.xdotool("mouseup 1");
+  s = editor.wait_idle_after(opened);
+  EXPECT_EQ(s["edits"].get<int>(), 1);
+  const Screenshot dragged = editor.screenshot("1_dragged");
+  const double unchanged = share_within(before, dragged, viewport, 2);
+  std::printf("[figures] editor: the drag changed %.2f %% of the viewport\n",
+              100.0 * (1.0 - unchanged));
+  EXPECT_LT(unchanged, 0.99) << "the deformed region did not change";
+
+  // Undo: the first image again.
+  editor.xdotool("mousemove " + centre_of(s, "frame", 0) + " key ctrl+z");
+  s = editor.wait_idle_after(s["generation"].get<long>());
+  EXPECT_EQ(s["edits"].get<int>(), 0);
+  const Screenshot undone = editor.screenshot("2_undone");
+  const double restored = share_within(before, undone, viewport, 2);
+  std::printf("[figures] editor: undo restored %.4f %% of the viewport within 2/255\n",
+              100.0 * restored);
+  EXPECT_GE(restored, 0.999);
+
+  // Redo: the edit again.
+  editor.xdotool("key ctrl+shift+z");
+  s = editor.wait_idle_after(s["generation"].get<long>());
+  EXPECT_EQ(s["edits"].get<int>(), 1);
+  const Screenshot redone = editor.screenshot("3_redone");
+  EXPECT_GE(share_within(dragged, redone, viewport, 2), 0.999);
+
+  // Save, then render the saved scene through the command line at the viewport's size.
+  editor.xdotool("key ctrl+s");
+  s = editor.wait_for([](const json& st) { return !st.value("saved", "").empty(); }, 30);
+  const fs::path rendered = dir_ / "rendered.png";
+  const std::string cmd = std::string(RAYWARP_BINARY) + " render " + file.string() + " -o " +
+                          rendered.string() + " --no-cache > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const Screenshot cli = read_rgb(rendered);
+  ASSERT_EQ(cli.width, viewport[2].get<int>());
+  ASSERT_EQ(cli.height, viewport[3].get<int>());
+  // The command line's image against the viewport's pixels of the last screenshot.
+  Screenshot crop;
+  crop.width = cli.width;
+  crop.height = cli.height;
+  const int x0 = s["window"][0].get<int>() + viewport[0].get<int>(),
+            y0 = s["window"][1].get<int>() + viewport[1].get<int>();
+  for (int y = 0; y < cli.height; ++y)
+    for (int x = 0; x < cli.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        crop.rgb.push_back(
+            redone.rgb[(static_cast<size_t>(y0 + y) * redone.width + x0 + x) * 3 + c]);
+  const double same = share_within(cli, crop, json::array({0, 0, cli.width, cli.height}), 2);
+  std::printf("[figures] editor: the saved scene renders %.4f %% of the viewport within 2/255\n",
+              100.0 * same);
+  EXPECT_GE(same, 0.999);
+  editor.xdotool("key ctrl+q");
+  editor.stop();
+}
+
+TEST_F(Editor, BadInputOrNoDisplayIsAnErrorWithStatus2) {
+  const std::string bin = RAYWARP_BINARY;
+  std::ofstream(path("broken.json")) << "{\"mesh\": 3}";
+  const std::string bad =
+      "DISPLAY= " + bin + " edit " + path("broken.json") + " 2> " + path("a.txt");
+  int status = std::system(bad.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << bad;
+  std::ifstream a(path("a.txt"));
+  const std::string said((std::istreambuf_iterator<char>(a)), {});
+  EXPECT_NE(said.find("broken.json"), std::string::npos) << said;
+  EXPECT_NE(said.find("mesh"), std::string::npos) << said;
+
+  const fs::path scene = fs::path(RAYWARP_SOURCE_DIR) / "examples" / "bunny_twist.json";
+  const std::string headless = "env -u DISPLAY -u WAYLAND_DISPLAY " + bin + " edit " +
+                               scene.string() + " 2> " + path("b.txt");
+  status = std::system(headless.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << headless;
+  std::ifstream b(path("b.txt"));
+  const std::string said_b((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_NE(said_b.find("no display"), std::string::npos) << said_b;
+}
+
+}  // namespace
+}  // namespace raywarp
