@@ -340,7 +340,8 @@ int main(int argc, char** argv) {
                    "rectangles; docs/editor.md) at every change, for scripts and tests");
   edit->add_option("--frame-log", eopt.frame_log,
                    "Write one line per shown frame to FILE: milliseconds since start, render "
-                   "milliseconds (0 when the viewport was not rendered again)");
+                   "milliseconds (0 when the viewport was not rendered again), 1 while a bake "
+                   "runs (else 0)");
   edit->add_option("--cache-dir", eopt.cache_dir, "Bake cache folder (as for render)");
   edit->add_flag("--no-cache", eopt.no_cache, "Read and store no bake cache entry");
   edit->footer(

@@ -115,7 +115,8 @@ class Editor {
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     glfwSwapBuffers(window_);
     if (frame_log_) {
-      frame_log_ << since_start_ms() << " " << render_ms << "\n";
+      frame_log_ << since_start_ms() << " " << render_ms << " " << (baker_->progress().busy ? 1 : 0)
+                 << "\n";
       frame_log_.flush();
     }
     publish();
