@@ -147,6 +147,7 @@ class Editor {
   std::vector<std::string> warnings_;
   int selected_ = 0;
   std::map<std::string, Rect> widgets_;
+  std::string active_;  // the widget held by the mouse (or typed into), by name
   std::string published_;
   std::string saved_;
   std::ofstream frame_log_;
@@ -361,6 +362,7 @@ class Editor {
   void remember(const std::string& name) {
     const ImVec2 a = ImGui::GetItemRectMin(), b = ImGui::GetItemRectMax();
     widgets_[name] = Rect{a.x, a.y, b.x - a.x, b.y - a.y};
+    if (ImGui::IsItemActive()) active_ = name;
   }
 
   // The parameters of one deformer object (JSON `d`) of `type`, read from and written to `d`;
@@ -395,8 +397,47 @@ class Editor {
     }
   }
 
+  // Add a box (a quarter of the mesh's bounds about their centre, twisted), delete the selected
+  // one, or fit it to the mesh's bounds. The scene reader refuses what overlaps, in the status
+  // line.
+  void box_buttons(json& boxes) {
+    const bool have_mesh = prepared_ != nullptr;
+    ImGui::BeginDisabled(!have_mesh);
+    if (ImGui::Button("Add box") && have_mesh) {
+      const Eigen::AlignedBox3d b = mesh_bounds(prepared_->mesh());
+      const Eigen::Vector3d c = b.center(), h = 0.25 * b.sizes();
+      boxes.push_back({{"centre", {c.x(), c.y(), c.z()}},
+                       {"half_extents", {h.x(), h.y(), h.z()}},
+                       {"deformer", {{"type", "twist"}, {"axis", "y"}, {"angle_deg", 90}}}});
+      selected_ = int(boxes.size()) - 1;
+    }
+    remember("add_box");
+    ImGui::SameLine();
+    if (ImGui::Button("Snap to mesh") && have_mesh && selected_ < int(boxes.size())) {
+      const Eigen::AlignedBox3d b = mesh_bounds(prepared_->mesh());
+      json& box = boxes[selected_];
+      for (const char* key : {"centre", "half_extents", "rotation_deg"}) box.erase(key);
+      // A hair larger than the bounds, so that no vertex lies on a face.
+      const Eigen::Vector3d pad = Eigen::Vector3d::Constant(1e-3 * b.diagonal().norm());
+      const Eigen::Vector3d lo = b.min() - pad, hi = b.max() + pad;
+      box["min"] = {lo.x(), lo.y(), lo.z()};
+      box["max"] = {hi.x(), hi.y(), hi.z()};
+    }
+    remember("snap_box");
+    ImGui::EndDisabled();
+    ImGui::SameLine();
+    ImGui::BeginDisabled(boxes.empty());
+    if (ImGui::Button("Delete box") && selected_ < int(boxes.size())) {
+      boxes.erase(boxes.begin() + selected_);
+      selected_ = std::max(0, selected_ - 1);
+    }
+    ImGui::EndDisabled();
+    remember("delete_box");
+  }
+
   void panel(float height) {
     widgets_.clear();
+    active_.clear();
     ImGui::SetNextWindowPos(ImVec2(0, 0));
     ImGui::SetNextWindowSize(ImVec2(kPanelWidth, height - kStatusHeight));
     ImGui::Begin("raywarp", nullptr,
@@ -429,7 +470,8 @@ class Editor {
       if (ImGui::Selectable(name.c_str(), selected_ == int(i))) selected_ = int(i);
       remember("box." + std::to_string(i));
     }
-    if (!boxes.empty() && selected_ < int(scene.boxes.size())) {
+    box_buttons(boxes);
+    if (!boxes.empty() && selected_ < int(scene.boxes.size()) && selected_ < int(boxes.size())) {
       ImGui::Separator();
       json& box = boxes[selected_];
       const BoxSpec& spec = scene.boxes[selected_];
@@ -550,6 +592,7 @@ class Editor {
                    {"bake_s", bake_s_},
                    {"texture_mib", texture_bytes_ / double(1 << 20)},
                    {"cancelled", baker_->cancelled()},
+                   {"active", active_},
                    {"viewport", {image_rect_.x, image_rect_.y, image_rect_.w, image_rect_.h}}};
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
     int wx = 0, wy = 0;

@@ -204,7 +204,11 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
 
   // Drag the twist angle's field to the right: one edit, whatever the number of steps.
   const long opened = s["generation"].get<long>();
-  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg") + " mousedown 1");
+  // The press first, seen by the editor (the field is held), then the moves: a loaded machine
+  // must not fold the press and the moves into one frame, which would be a click.
+  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg"));
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "param.angle_deg"; });
   for (int step = 1; step <= 4; ++step)
     editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", 10 * step));
   editor.xdotool("mouseup 1");
@@ -258,6 +262,17 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   std::printf("[figures] editor: the saved scene renders %.4f %% of the viewport within 2/255\n",
               100.0 * same);
   EXPECT_GE(same, 0.999);
+
+  // A box over the first one: the scene reader refuses it in the status line; nothing changes.
+  const long saved_generation = s["generation"].get<long>();
+  editor.xdotool("mousemove " + centre_of(s, "add_box"));
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "add_box"; });
+  editor.xdotool("mouseup 1");
+  s = editor.wait_for(
+      [](const json& st) { return st.value("message", "").find("overlaps") != std::string::npos; });
+  EXPECT_EQ(s["generation"].get<long>(), saved_generation);
+  EXPECT_EQ(s["edits"].get<int>(), 1);
   editor.xdotool("key ctrl+q");
   editor.stop();
 }

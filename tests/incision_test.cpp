@@ -17,6 +17,7 @@
 
 #include "base/error.h"
 #include "library/deformation_bake.h"
+#include "tests/sanitizer.h"
 
 namespace raywarp {
 namespace {
@@ -100,13 +101,13 @@ TEST(Incision, RoundTripForwardOfInverse) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.5 * kHalf.norm());
     double worst = 0.0;
     int used = 0;
-    for (int k = 0; k < 5000; ++k) {
+    for (int k = 0; k < testing::samples(5000); ++k) {
       const Eigen::Vector3d p_def = random_in(rng, bounds);
       if (!(c.deformer->alpha(p_def) < 0.0)) continue;
       ++used;
       worst = std::max(worst, (c.deformer->forward(c.deformer->inverse(p_def)) - p_def).norm());
     }
-    EXPECT_GT(used, 2500) << c.deformer->describe();
+    EXPECT_GT(used, testing::samples(5000) / 2) << c.deformer->describe();
     EXPECT_LE(worst, tol) << c.deformer->describe();
     worst_all = std::max(worst_all, worst);
   }
@@ -122,7 +123,7 @@ TEST(Incision, RoundTripInverseOfForward) {
   double worst_all = 0.0;
   for (const Case& c : all_cases()) {
     double worst = 0.0;
-    for (int k = 0; k < 5000; ++k) {
+    for (int k = 0; k < testing::samples(5000); ++k) {
       const Eigen::Vector3d p = random_point(rng, kHalf, k % 2 ? 2.0 : 1.0);
       worst = std::max(worst, (c.deformer->inverse(c.deformer->forward(p)) - p).norm());
     }
@@ -148,7 +149,7 @@ TEST(Incision, JacobianMatchesCentralDifferences) {
   for (const Case& c : all_cases()) {
     const Frame& f = c.f;
     double worst = 0.0;
-    for (int k = 0; k < 2000; ++k) {
+    for (int k = 0; k < testing::samples(2000); ++k) {
       const Eigen::Vector3d p = random_point(rng, kHalf, scale);
       const double u = f.side * p[f.e];
       if (std::abs(p[f.n]) < 2.0 * d || std::abs(std::abs(p[f.n]) - kHalf[f.n]) < 2.0 * d ||
@@ -174,7 +175,7 @@ TEST(Incision, JacobianMatchesCentralDifferences) {
 TEST(Incision, NeverFolds) {
   std::mt19937_64 rng(4);
   for (const Case& c : all_cases()) {
-    for (int k = 0; k < 1000; ++k) {
+    for (int k = 0; k < testing::samples(1000); ++k) {
       const Eigen::Vector3d p = random_point(rng, kHalf);
       EXPECT_NEAR(c.deformer->jacobian(p).determinant(), 1.0 - c.f.c(p) / kHalf[c.f.n], 1e-14);
     }
@@ -210,7 +211,7 @@ TEST(Incision, AlphaPositiveExactlyOnTheGap) {
   for (const Case& c : all_cases()) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.3);
     int in_gap = 0;
-    for (int k = 0; k < 4000; ++k) {
+    for (int k = 0; k < testing::samples(4000); ++k) {
       const Eigen::Vector3d p_def = random_in(rng, bounds);
       const bool gap = c.f.in_gap(p_def);
       in_gap += gap;
@@ -229,7 +230,7 @@ TEST(Incision, AlphaIsOneLipschitz) {
   double worst_all = 0.0;
   for (const Case& c : all_cases()) {
     double worst = 0.0;
-    for (int k = 0; k < 4000; ++k) {
+    for (int k = 0; k < testing::samples(4000); ++k) {
       const Eigen::Vector3d p = random_point(rng, kHalf, 1.3);
       const Eigen::Vector3d q =
           k % 2 ? random_point(rng, kHalf, 1.3) : (p + random_point(rng, kHalf, 1e-3)).eval();
@@ -307,7 +308,7 @@ TEST(Incision, InverseContinuousAcrossTheCutFaces) {
   for (const Case& c : all_cases()) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.1);
     double worst = 0.0;
-    for (int k = 0; k < 400; ++k) {
+    for (int k = 0; k < testing::samples(400); ++k) {
       Eigen::Vector3d out = random_in(rng, bounds), in = random_in(rng, bounds);
       if (!(c.deformer->alpha(out) < 0.0)) std::swap(out, in);
       if (!(c.deformer->alpha(out) < 0.0 && c.deformer->alpha(in) > 0.0)) continue;
@@ -324,7 +325,7 @@ TEST(Incision, InverseContinuousAcrossTheCutFaces) {
     EXPECT_LE(worst, 1e-6 * kHalf.norm()) << c.deformer->describe();
     worst_all = std::max(worst_all, worst);
   }
-  EXPECT_GT(checked, 1000);
+  EXPECT_GT(checked, testing::samples(1000));
   std::printf("[figures] incision D across the cut faces: %d points, worst jump %.3g\n", checked,
               worst_all);
 }

@@ -19,6 +19,7 @@
 
 #include "base/error.h"
 #include "library/deformation_bake.h"
+#include "tests/sanitizer.h"
 
 namespace raywarp {
 namespace {
@@ -135,13 +136,13 @@ TEST(Peel, RoundTripForwardOfInverse) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.5 * kHalf.norm());
     double worst = 0.0;
     int used = 0;
-    for (int k = 0; k < 5000; ++k) {
+    for (int k = 0; k < testing::samples(5000); ++k) {
       const Eigen::Vector3d p_def = random_in(rng, bounds);
       if (!(c.deformer->alpha(p_def) < 0.0)) continue;
       ++used;
       worst = std::max(worst, (c.deformer->forward(c.deformer->inverse(p_def)) - p_def).norm());
     }
-    EXPECT_GT(used, 2500) << c.deformer->describe();
+    EXPECT_GT(used, testing::samples(5000) / 2) << c.deformer->describe();
     EXPECT_LE(worst, tol) << c.deformer->describe();
     worst_all = std::max(worst_all, worst);
   }
@@ -158,7 +159,7 @@ TEST(Peel, RoundTripInverseOfForward) {
   double worst_all = 0.0;
   for (const Case& c : all_cases()) {
     double worst = 0.0;
-    for (int k = 0; k < 5000; ++k) {
+    for (int k = 0; k < testing::samples(5000); ++k) {
       const Eigen::Vector3d p = random_unfolded_point(rng, c.f, kHalf);
       worst = std::max(worst, (c.deformer->inverse(c.deformer->forward(p)) - p).norm());
     }
@@ -185,7 +186,7 @@ TEST(Peel, JacobianMatchesCentralDifferences) {
     const double tol = 2.0 * (d * d / 6.0 * third + 4.0 * kEps * f_max / d);
     tol_max = std::max(tol_max, tol);
     double worst = 0.0;
-    for (int n = 0; n < 2000; ++n) {
+    for (int n = 0; n < testing::samples(2000); ++n) {
       const Eigen::Vector3d p = random_point(rng, kHalf, scale);
       const double s = f.s(p), v = f.v(p);
       if (std::abs(s) < 2.0 * d || std::abs(s - f.length()) < 2.0 * d || std::abs(v) < 2.0 * d)
@@ -210,7 +211,7 @@ TEST(Peel, JacobianDeterminantIsOneMinusVOverR) {
   std::mt19937_64 rng(4);
   for (const Case& c : all_cases()) {
     const Frame& f = c.f;
-    for (int n = 0; n < 1000; ++n) {
+    for (int n = 0; n < testing::samples(1000); ++n) {
       const Eigen::Vector3d p = random_point(rng, kHalf, 1.5);
       const bool curved = f.in_flap(p) && f.s(p) <= f.length();
       const double expected = curved ? 1.0 - f.v(p) / f.radius : 1.0;
@@ -261,7 +262,7 @@ TEST(Peel, AlphaPositiveExactlyOnTheCut) {
     ASSERT_GE(2.0 * f.radius, f.t);
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.3);
     int in_cut = 0;
-    for (int k = 0; k < 4000; ++k) {
+    for (int k = 0; k < testing::samples(4000); ++k) {
       const Eigen::Vector3d p_def = random_in(rng, bounds);
       const double a = c.deformer->alpha(p_def);
       if (std::abs(a) < 1e-12) continue;  // on the boundary, to rounding
@@ -291,7 +292,7 @@ TEST(Peel, AlphaIsOneLipschitz) {
   for (const Case& c : all_cases()) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.3);
     double worst = 0.0;
-    for (int k = 0; k < 4000; ++k) {
+    for (int k = 0; k < testing::samples(4000); ++k) {
       const Eigen::Vector3d p = random_in(rng, bounds);
       const Eigen::Vector3d q =
           k % 2 ? random_in(rng, bounds) : (p + random_point(rng, kHalf, 1e-3)).eval();
@@ -368,7 +369,7 @@ TEST(Peel, InverseContinuousAcrossTheCutFaces) {
   for (const Case& c : all_cases()) {
     const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, kHalf, 0.1);
     double worst = 0.0;
-    for (int k = 0; k < 400; ++k) {
+    for (int k = 0; k < testing::samples(400); ++k) {
       Eigen::Vector3d out = random_in(rng, bounds), in = random_in(rng, bounds);
       if (!(c.deformer->alpha(out) < 0.0)) std::swap(out, in);
       if (!(c.deformer->alpha(out) < 0.0 && c.deformer->alpha(in) > 0.0)) continue;
@@ -385,7 +386,7 @@ TEST(Peel, InverseContinuousAcrossTheCutFaces) {
     EXPECT_LE(worst, 1e-6 * kHalf.norm()) << c.deformer->describe();
     worst_all = std::max(worst_all, worst);
   }
-  EXPECT_GT(checked, 1000);
+  EXPECT_GT(checked, testing::samples(1000));
   std::printf("[figures] peel D across the cut faces: %d points, worst jump %.3g\n", checked,
               worst_all);
 }
@@ -437,7 +438,7 @@ TEST(Peel, BakeIsFiniteAndFlagsTheImage) {
         }
     EXPECT_GT(valid, 1000) << c.deformer->describe();
     std::mt19937_64 rng(9);
-    for (int n = 0; n < 1000; ++n) {
+    for (int n = 0; n < testing::samples(1000); ++n) {
       const Eigen::Vector3d p = random_unfolded_point(rng, c.f, kHalf);
       const Eigen::Vector3d back = c.deformer->inverse(c.deformer->forward(p));
       EXPECT_TRUE((back.cwiseAbs().array() <= kHalf.array() * (1.0 + 1e-12)).all());
