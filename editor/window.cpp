@@ -7,6 +7,7 @@
 #include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
 #include <imgui_internal.h>
+#include <imgui_stdlib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -148,6 +149,8 @@ class Editor {
   int selected_ = 0;
   std::map<std::string, Rect> widgets_;
   std::string active_;  // the widget held by the mouse (or typed into), by name
+  int still_width_ = 1920, still_height_ = 1080;
+  std::string still_path_, still_written_;
   std::string published_;
   std::string saved_;
   std::ofstream frame_log_;
@@ -435,6 +438,39 @@ class Editor {
     remember("delete_box");
   }
 
+  // Render a still of the current view at any size to a PNG (the view's aspect follows the size).
+  void still_fields() {
+    if (still_path_.empty()) {
+      fs::path p = doc_->path();
+      still_path_ = (p.parent_path() / (p.stem().string() + "_still.png")).string();
+    }
+    ImGui::InputInt("width##still", &still_width_);
+    remember("still.width");
+    ImGui::InputInt("height##still", &still_height_);
+    remember("still.height");
+    still_width_ = std::clamp(still_width_, 1, 8192);
+    still_height_ = std::clamp(still_height_, 1, 8192);
+    ImGui::InputText("file##still", &still_path_);
+    remember("still.path");
+    ImGui::BeginDisabled(!prepared_ || !camera_);
+    if (ImGui::Button("Render still") && prepared_ && camera_) {
+      try {
+        gl::FrameStats stats;
+        const Image image =
+            renderer_->render(*camera_, still_width_, still_height_, doc_->scene().render, &stats);
+        write_png(still_path_, image);
+        message_ = "wrote " + still_path_ + " (" + std::to_string(still_width_) + "x" +
+                   std::to_string(still_height_) + ", " + std::to_string(int(stats.milliseconds)) +
+                   " ms)";
+        still_written_ = still_path_;
+      } catch (const Error& e) {
+        message_ = e.what();
+      }
+    }
+    ImGui::EndDisabled();
+    remember("still.render");
+  }
+
   void panel(float height) {
     widgets_.clear();
     active_.clear();
@@ -532,6 +568,8 @@ class Editor {
     remember("sampling");
     if (render.is_null()) working_.erase("render");
     ImGui::Separator();
+    still_fields();
+    ImGui::Separator();
     ImGui::TextWrapped(
         "Orbit: left drag. Pan: middle drag or Shift + left drag. Zoom: wheel or right drag. "
         "F: frame the mesh. Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save, Ctrl+Q quit. Drop a "
@@ -587,6 +625,7 @@ class Editor {
                    {"can_redo", doc_->can_redo()},
                    {"scene", doc_->path().string()},
                    {"saved", saved_},
+                   {"still", still_written_},
                    {"message", message_},
                    {"frame_ms", frame_ms_},
                    {"bake_s", bake_s_},

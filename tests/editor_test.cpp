@@ -263,6 +263,39 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
               100.0 * same);
   EXPECT_GE(same, 0.999);
 
+  // A still at 320x200, typed into the fields: the command line renders the saved scene at that
+  // size to the same image.
+  for (const auto& [field, value] : {std::pair{"still.width", "320"}, {"still.height", "200"}}) {
+    editor.xdotool("mousemove " + centre_of(s, field));
+    editor.xdotool("mousedown 1");
+    editor.wait_for([&](const json& st) { return st.value("active", "") == field; });
+    editor.xdotool("mouseup 1");
+    editor.xdotool("key ctrl+a");
+    editor.xdotool(std::string("type ") + value);
+    editor.xdotool("key Return");
+  }
+  editor.xdotool("mousemove " + centre_of(s, "still.render"));
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "still.render"; });
+  editor.xdotool("mouseup 1");
+  s = editor.wait_for([](const json& st) { return !st.value("still", "").empty(); }, 60);
+  const Screenshot still = read_rgb(s.value("still", ""));
+  const fs::path small = dir_ / "small.png";
+  const std::string small_cmd = std::string(RAYWARP_BINARY) + " render " + file.string() + " -o " +
+                                small.string() +
+                                " --width 320 --height 200 --no-cache > /dev/null 2>&1";
+  ASSERT_EQ(std::system(small_cmd.c_str()), 0) << small_cmd;
+  const Screenshot cli_small = read_rgb(small);
+  ASSERT_EQ(still.width, 320);
+  ASSERT_EQ(still.height, 200);
+  ASSERT_EQ(cli_small.width, 320);
+  const double still_same = share_within(still, cli_small, json::array({0, 0, 320, 200}), 2);
+  std::printf(
+      "[figures] editor: the 320x200 still matches the command line's in %.4f %% of its "
+      "pixels within 2/255\n",
+      100.0 * still_same);
+  EXPECT_GE(still_same, 0.999);
+
   // A box over the first one: the scene reader refuses it in the status line; nothing changes.
   const long saved_generation = s["generation"].get<long>();
   editor.xdotool("mousemove " + centre_of(s, "add_box"));
