@@ -70,7 +70,7 @@ void on_drop(GLFWwindow*, int count, const char** paths) {
 
 class Editor {
  public:
-  Editor(const EditOptions& options, GLFWwindow* window)
+  Editor(const EditOptions& options, GLFWwindow* window, Document document)
       : opt_(options), window_(window), start_(std::chrono::steady_clock::now()) {
     std::unique_ptr<BakeCache> cache;
     if (!options.no_cache) {
@@ -81,8 +81,7 @@ class Editor {
     baker_ = std::make_unique<Baker>(std::move(cache));
     renderer_ = std::make_unique<gl::Renderer>();
     if (!options.frame_log.empty()) frame_log_.open(options.frame_log, std::ios::trunc);
-    open(options.input);
-    if (!doc_) throw Error(message_);
+    show(std::move(document), "opened " + options.input);
   }
 
   ~Editor() {
@@ -165,17 +164,20 @@ class Editor {
   // document stays.
   void open(const std::string& file) {
     try {
-      Document d = Document::open(file);
-      doc_ = std::move(d);
-      camera_ = doc_->scene().camera;
-      selected_ = 0;
-      message_ = "opened " + file;
-      submit();
+      show(Document::open(file), "opened " + file);
     } catch (const Error& e) {
       message_ = e.what();
     } catch (const fs::filesystem_error& e) {
       message_ = e.what();
     }
+  }
+
+  void show(Document document, const std::string& message) {
+    doc_ = std::move(document);
+    camera_ = doc_->scene().camera;
+    selected_ = 0;
+    message_ = message;
+    submit();
   }
 
   void submit() {
@@ -661,7 +663,7 @@ void glfw_error(int code, const char* text) {
 }  // namespace
 
 int run_editor(const EditOptions& options) {
-  (void)Document::open(options.input);  // a bad file is said before any window opens
+  Document document = Document::open(options.input);  // a bad file is said before any window
   glfwSetErrorCallback(glfw_error);
   if (!glfwInit())
     throw Error(
@@ -691,7 +693,7 @@ int run_editor(const EditOptions& options) {
   ImGui_ImplOpenGL3_Init("#version 450");
   int code = 0;
   {
-    Editor editor(options, window);
+    Editor editor(options, window, std::move(document));
     while (!glfwWindowShouldClose(window)) {
       // While a bake runs, wake often for its progress; otherwise wait for input.
       if (editor.busy())
