@@ -11,11 +11,11 @@
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/pipeline.h"
-#include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/gif.h"
 #include "library/scene.h"
+#include "library/texture_map.h"
 
 namespace raywarp {
 
@@ -172,7 +172,6 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
   gl::Renderer renderer;
   PreparedScene prepared;
   double baked_angle = 0.0;
-  double baked_lipschitz = 0.0;
   // One session for the sequence: the mesh is loaded once, and what a frame does not change
   // (the distance grid) is read from memory.
   BakeSession session(opt.cache);
@@ -190,7 +189,6 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
     result.textures_baked += prepared.bakes;
     renderer.set_mesh(prepared.mesh());
     renderer.set_boxes(prepared.textures());
-    baked_lipschitz = prepared.boxes[mapped_box].textures.lipschitz;
   } else {
     log << "animation: " << opt.params.size() << " parameter(s) over " << opt.frames
         << " frames, re-baked every frame (" << why << ")\n";
@@ -203,20 +201,8 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
       const BoxSpec& spec = scenes[f].boxes[mapped_box];
       const BoxTextures& baked = prepared.boxes[mapped_box].textures;
       const double s = spec.deformer.angle_deg / baked_angle;  // in [0, 1]
-      const int a = spec.deformer.axis;
-      const double h = spec.box.half_extents[a];
-      Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-      m(a, a) = s;
-      m(a, 3) = h * (s - 1.0);
-      // The region of this frame's deformed box, within the baked texture's; the bound of
-      // |I + J_D M| <= |I + J_D| |M| + |I - M| = L + (1 - s).
-      const double texel = baked.deformation.grid.voxel();
-      auto twist = make_twist(spec.box.half_extents, static_cast<Axis>(a), spec.deformer.angle_deg);
-      Eigen::AlignedBox3d region =
-          deformed_bounds(*twist, spec.box.half_extents, texel)
-              .intersection(Eigen::AlignedBox3d(baked.deformation.grid.origin,
-                                                baked.deformation.grid.upper()));
-      renderer.set_texture_map(mapped_box, m, region, baked_lipschitz + (1.0 - s));
+      const TextureMapping m = twist_angle_mapping(spec, baked, baked_angle);
+      renderer.set_texture_map(mapped_box, m.map, m.region, m.lipschitz);
       what = "mapped (s = " + fmt("%.4g", s) + ", no bake)";
     } else {
       std::ostringstream bake_log;

@@ -342,11 +342,17 @@ int main(int argc, char** argv) {
                    "Write one line per shown frame to FILE: milliseconds since start, render "
                    "milliseconds (0 when the viewport was not rendered again), 1 while a bake "
                    "runs (else 0)");
+  edit->add_option("--up", eopt.up_axis,
+                   "A mesh file's up axis, for the box placed on its upper half and the camera")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, int>{{"x", 0}, {"y", 1}, {"z", 2}}))
+      ->capture_default_str();
   edit->add_option("--cache-dir", eopt.cache_dir, "Bake cache folder (as for render)");
   edit->add_flag("--no-cache", eopt.no_cache, "Read and store no bake cache entry");
   edit->footer(
       "Mouse: left drag orbits, middle drag (or Shift + left) pans, the wheel or a right drag "
-      "zooms; F frames the mesh.\nKeys: Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save (the camera "
+      "zooms; F frames the mesh. Drag a box's handles: a face's dot moves that face, the centre "
+      "moves the box, a ring rotates it.\nKeys: Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save (the "
+      "camera "
       "inline, at the viewport's size), Ctrl+Q quit.\nExample: raywarp edit "
       "examples/bunny_twist.json");
 

@@ -20,10 +20,10 @@ Baker::~Baker() {
   worker_.join();
 }
 
-void Baker::submit(const Scene& scene, long generation) {
+void Baker::submit(const Scene& scene, long generation, bool centre_on_lower_faces) {
   {
     const std::lock_guard lock(mutex_);
-    pending_ = std::make_pair(scene, generation);
+    pending_ = Job{scene, generation, centre_on_lower_faces};
     if (current_ && !current_->cancelled()) {
       current_->cancel();
       ++cancelled_;
@@ -52,14 +52,14 @@ long Baker::cancelled() const {
 void Baker::run() {
   BakeSession session(cache_.get());
   for (;;) {
-    std::pair<Scene, long> job;
+    Job job;
     {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [this] { return stop_ || pending_.has_value(); });
       if (stop_) return;
       job = std::move(*pending_);
       pending_.reset();
-      progress_ = Progress{true, job.second, "", 0.0};
+      progress_ = Progress{true, job.generation, "", 0.0};
     }
     Interrupter interrupter([this](const std::string& stage, double fraction) {
       const std::lock_guard lock(mutex_);
@@ -72,12 +72,13 @@ void Baker::run() {
       if (pending_ || stop_) interrupter.cancel();  // a newer one came while this one started
     }
     Result result;
-    result.generation = job.second;
+    result.generation = job.generation;
+    result.centre_on_lower_faces = job.centre_on_lower_faces;
     const auto start = std::chrono::steady_clock::now();
     bool finished = true;
     try {
       result.prepared = std::make_shared<const PreparedScene>(
-          bake_scene(job.first, session, false, &interrupter));
+          bake_scene(job.scene, session, job.centre_on_lower_faces, &interrupter));
     } catch (const Cancelled&) {
       finished = false;
     } catch (const Error& e) {

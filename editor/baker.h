@@ -25,10 +25,13 @@ class Baker {
   Baker& operator=(const Baker&) = delete;
 
   // Bakes `scene` for state number `generation`; a bake under way for an older one is cancelled.
-  void submit(const Scene& scene, long generation);
+  // `centre_on_lower_faces`: texel centres of D on the boxes' lower faces, so that a twist's
+  // angle can then be shown smaller through a texture map M (library/texture_map.h).
+  void submit(const Scene& scene, long generation, bool centre_on_lower_faces = false);
 
   struct Result {
     long generation = 0;
+    bool centre_on_lower_faces = false;
     std::shared_ptr<const PreparedScene> prepared;  // null when the bake failed
     std::string error;                              // the bake's Error message
     double seconds = 0.0;
@@ -50,7 +53,12 @@ class Baker {
   std::unique_ptr<BakeCache> cache_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::optional<std::pair<Scene, long>> pending_;
+  struct Job {
+    Scene scene;
+    long generation = 0;
+    bool centre_on_lower_faces = false;
+  };
+  std::optional<Job> pending_;
   std::optional<Result> done_;
   Progress progress_;
   Interrupter* current_ = nullptr;

@@ -29,21 +29,51 @@ fs::path scene_beside(const fs::path& mesh) {
 
 }  // namespace
 
-Camera frame_bounds(const Eigen::AlignedBox3d& bounds, double fov_y_deg) {
+using json = nlohmann::json;
+
+std::optional<std::vector<size_t>> twist_angle_changes(const json& now, const json& was) {
+  if (!now.is_object() || !was.is_object()) return std::nullopt;
+  json rest_now = now, rest_was = was;
+  rest_now.erase("boxes");
+  rest_was.erase("boxes");
+  if (rest_now != rest_was) return std::nullopt;
+  const json &a = now.value("boxes", json::array()), &b = was.value("boxes", json::array());
+  if (!a.is_array() || !b.is_array() || a.size() != b.size()) return std::nullopt;
+  std::vector<size_t> changed;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (a[i] == b[i]) continue;
+    auto twist = [](const json& box) {
+      return box.is_object() && box.contains("deformer") && box["deformer"].is_object() &&
+             box["deformer"].value("type", "") == "twist";
+    };
+    if (!twist(a[i]) || !twist(b[i])) return std::nullopt;
+    json x = a[i], y = b[i];
+    x["deformer"].erase("angle_deg");
+    y["deformer"].erase("angle_deg");
+    if (x != y) return std::nullopt;
+    changed.push_back(i);
+  }
+  if (changed.empty()) return std::nullopt;
+  return changed;
+}
+
+Camera frame_bounds(const Eigen::AlignedBox3d& bounds, double fov_y_deg, int up_axis) {
   Camera c;
   const Eigen::Vector3d centre = bounds.center();
   const double radius = std::max(0.5 * bounds.diagonal().norm(), 1e-6);
   const double distance = 1.1 * radius / std::sin(0.5 * fov_y_deg * M_PI / 180.0);
   c.fov_y_deg = fov_y_deg;
   c.target = centre;
-  c.eye = centre + Eigen::Vector3d(0, 0, distance);
-  c.up = Eigen::Vector3d(0, 1, 0);
+  // The front: from +z with y up (or x up), from -y with z up.
+  c.eye = centre + distance * (up_axis == 2 ? Eigen::Vector3d(0, -1, 0) : Eigen::Vector3d(0, 0, 1));
+  c.up = Eigen::Vector3d::Unit(std::clamp(up_axis, 0, 2));
   c.near_plane = std::max(distance - 2.0 * radius, distance * 1e-3);
   c.far_plane = distance + 2.0 * radius;
   return c;
 }
 
-Document Document::open(const fs::path& file) {
+Document Document::open(const fs::path& file, int up_axis) {
+  if (up_axis < 0 || up_axis > 2) throw Error("edit: --up: must be x, y or z");
   Document d;
   if (is_scene_file(file)) {
     d.path_ = file;
@@ -51,18 +81,20 @@ Document Document::open(const fs::path& file) {
   } else {
     const Mesh mesh = load_mesh(file.string());
     const Eigen::AlignedBox3d b = mesh_bounds(mesh);
-    const Eigen::Vector3d lower(b.min().x(), b.center().y(), b.min().z());
     // A little larger than the upper half, so that the box holds the part's outline.
     const Eigen::Vector3d pad = 0.02 * b.diagonal();
-    const Eigen::Vector3d lo = lower - Eigen::Vector3d(pad.x(), 0, pad.z()), hi = b.max() + pad;
+    Eigen::Vector3d lo = b.min() - pad;
+    const Eigen::Vector3d hi = b.max() + pad;
+    lo[up_axis] = b.center()[up_axis];
+    const char* axes[] = {"x", "y", "z"};
     d.path_ = scene_beside(file);
-    d.history_.push_back(
-        nlohmann::json{{"mesh", file.filename().string()},
-                       {"boxes",
-                        {{{"min", {lo.x(), lo.y(), lo.z()}},
-                          {"max", {hi.x(), hi.y(), hi.z()}},
-                          {"deformer", {{"type", "twist"}, {"axis", "y"}, {"angle_deg", 90}}}}}},
-                       {"camera", camera_to_json(frame_bounds(b))}});
+    d.history_.push_back(nlohmann::json{
+        {"mesh", file.filename().string()},
+        {"boxes",
+         {{{"min", {lo.x(), lo.y(), lo.z()}},
+           {"max", {hi.x(), hi.y(), hi.z()}},
+           {"deformer", {{"type", "twist"}, {"axis", axes[up_axis]}, {"angle_deg", 90}}}}}},
+        {"camera", camera_to_json(frame_bounds(b, 30.0, up_axis))}});
   }
   d.reload();
   return d;

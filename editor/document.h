@@ -5,6 +5,7 @@
 #pragma once
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,9 +17,9 @@ namespace raywarp::editor {
 class Document {
  public:
   // Opens a scene file (.json), or a mesh file: then a scene is made beside it (NAME.json) with
-  // one box over the mesh's upper half (along y) twisted by 90 degrees, so that something shows.
-  // Throws Error as `raywarp render` would.
-  static Document open(const std::filesystem::path& file);
+  // one box over the mesh's upper half along `up_axis` (0 x, 1 y, 2 z) twisted about it by 90
+  // degrees, so that something shows. Throws Error as `raywarp render` would.
+  static Document open(const std::filesystem::path& file, int up_axis = 1);
 
   const std::filesystem::path& path() const { return path_; }
   const nlohmann::json& json() const { return history_[at_]; }
@@ -46,8 +47,14 @@ class Document {
   void reload();
 };
 
-// A camera that frames `bounds` (object units) from the front (+z), looking at its centre with
-// +y up, the whole bounding sphere in view.
-Camera frame_bounds(const Eigen::AlignedBox3d& bounds, double fov_y_deg = 30.0);
+// The boxes whose only change from `was` to `now` is a twist's angle (deformer.angle_deg of a
+// box whose deformer is one twist), when nothing else differs; none when anything else does or
+// nothing changed.
+std::optional<std::vector<size_t>> twist_angle_changes(const nlohmann::json& now,
+                                                       const nlohmann::json& was);
+
+// A camera that frames `bounds` (object units) from the front, looking at its centre with axis
+// `up_axis` up (y up: from +z; z up: from -y), the whole bounding sphere in view.
+Camera frame_bounds(const Eigen::AlignedBox3d& bounds, double fov_y_deg = 30.0, int up_axis = 1);
 
 }  // namespace raywarp::editor

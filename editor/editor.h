@@ -10,6 +10,8 @@ struct EditOptions {
   int width = 1280, height = 800;  // the window's size in pixels
   std::string status_file;  // rewritten (atomically) at every change of state: docs/editor.md
   std::string frame_log;    // one line per shown frame: time since start, frame time (ms)
+  int up_axis = 1;          // a bare mesh's up axis: 0 x, 1 y, 2 z
+  std::string shader_dir;   // "" the built-in shaders; else read from here, reloaded on change
   std::string cache_dir;    // the bake cache folder ("" the default)
   bool no_cache = false;
   int quit_after_idle = 0;  // > 0: close after this many idle seconds (scripts and tests)

@@ -25,9 +25,11 @@
 #include "editor/baker.h"
 #include "editor/document.h"
 #include "editor/editor.h"
+#include "editor/handles.h"
 #include "gl/gl_api.h"
 #include "gl/renderer.h"
 #include "library/mesh.h"
+#include "library/texture_map.h"
 
 namespace raywarp::editor {
 
@@ -100,13 +102,16 @@ class Editor {
     glfwGetFramebufferSize(window_, &fw, &fh);
     view_ =
         Rect{kPanelWidth, 0, std::max(1.0f, fw - kPanelWidth), std::max(1.0f, fh - kStatusHeight)};
+    widgets_.clear();
+    active_.clear();
     handle_keys();
-    handle_mouse();
     working_ = doc_->json();
+    handle_mouse();
     panel(float(fh));
     status_bar(float(fw), float(fh));
     commit_edit();
     const double render_ms = render_viewport();
+    draw_handles();
     ImGui::Render();
     gl::glBindFramebuffer(GL_FRAMEBUFFER, 0);
     gl::glViewport(0, 0, fw, fh);
@@ -122,7 +127,7 @@ class Editor {
     publish();
   }
 
-  bool busy() const { return baker_->progress().busy || shown_ < generation_; }
+  bool busy() const { return baker_->progress().busy || shown_ < generation_ || unbaked_; }
 
  private:
   EditOptions opt_;
@@ -135,6 +140,19 @@ class Editor {
   ImGuiID last_edit_id_ = 0;
   long generation_ = 0, shown_ = -1;
   std::shared_ptr<const PreparedScene> prepared_;
+  // What a bake was submitted for: the document (or, while a twist's angle is dragged, the
+  // document with that angle widened), its scene, and whether D's texels were centred on the
+  // lower faces.
+  struct Submitted {
+    json doc;
+    Scene scene;
+    bool centred = false;
+  };
+  std::map<long, Submitted> submitted_;
+  std::optional<Submitted> baked_;  // what the shown textures were baked from
+  std::vector<size_t> mapped_;      // boxes shown through a texture map M
+  bool unbaked_ = false;  // shown through M while a drag goes on; its own bake follows the drag
+  long mapped_edits_ = 0, bakes_shown_ = 0;
   const Mesh* renderer_mesh_ = nullptr;
   std::optional<Camera> camera_;
   bool dirty_ = true;
@@ -154,6 +172,14 @@ class Editor {
   std::string saved_;
   std::ofstream frame_log_;
   int drag_button_ = -1;
+  // A drag of a box handle: the handle, the box as it was, where the drag began, and whether
+  // it has made its edit yet (the later steps merge into it).
+  std::optional<Handle> handle_drag_;
+  Box handle_start_;
+  Eigen::Vector2d handle_from_;
+  bool handle_edited_ = false, handle_released_ = false;
+  std::optional<Handle> hovered_;
+  bool show_handles_ = true;  // the boxes' edges and handles over the viewport (H)
 
   double since_start_ms() const {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_)
@@ -164,7 +190,7 @@ class Editor {
   // document stays.
   void open(const std::string& file) {
     try {
-      show(Document::open(file), "opened " + file);
+      show(Document::open(file, opt_.up_axis), "opened " + file);
     } catch (const Error& e) {
       message_ = e.what();
     } catch (const fs::filesystem_error& e) {
@@ -180,9 +206,74 @@ class Editor {
     submit();
   }
 
+  // Bakes the document as it is.
   void submit() {
+    unbaked_ = false;
+    submit_scene(doc_->json(), doc_->scene(), false);
+  }
+
+  void submit_scene(const json& document, const Scene& scene, bool centred) {
     ++generation_;
-    baker_->submit(doc_->scene(), generation_);
+    submitted_[generation_] = Submitted{document, scene, centred};
+    baker_->submit(scene, generation_, centred);
+  }
+
+  // While a twist's angle is dragged: bake the box at a wider angle of the same sign, texel
+  // centres on its lower faces, so that every angle from 0 to that one is then shown through
+  // the texture map M with no bake (try_map). False when the edit is not only twist angles.
+  bool submit_widened() {
+    if (!baked_ || doc_->scene().render.sampling == "bounded") return false;
+    const auto changed = twist_angle_changes(doc_->json(), baked_->doc);
+    if (!changed) return false;
+    json document = doc_->json();
+    Scene scene = doc_->scene();
+    for (size_t i : *changed) {
+      const double now = scene.boxes[i].deformer.angle_deg;
+      const double was = baked_->scene.boxes[i].deformer.angle_deg;
+      const double sign = now != 0.0 ? (now > 0.0 ? 1.0 : -1.0) : (now >= was ? 1.0 : -1.0);
+      const double wide = now + sign * std::max(90.0, 0.5 * std::abs(now));
+      scene.boxes[i].deformer.angle_deg = wide;
+      document["boxes"][i]["deformer"]["angle_deg"] = wide;
+    }
+    submit_scene(document, scene, true);
+    return true;
+  }
+
+  // Shows the document through the shown textures when it differs from what they were baked
+  // for only in twist angles within the baked ones: each such box's texture is read through the
+  // map M of library/texture_map.h, no texel uploaded again. False when it cannot.
+  bool try_map() {
+    if (!prepared_ || !baked_ || doc_->scene().render.sampling == "bounded") return false;
+    std::vector<size_t> changed;
+    if (doc_->json() != baked_->doc) {
+      if (!baked_->centred) return false;
+      const auto c = twist_angle_changes(doc_->json(), baked_->doc);
+      if (!c) return false;
+      changed = *c;
+    }
+    std::vector<TextureMapping> maps;
+    try {
+      for (size_t i : changed)
+        maps.push_back(twist_angle_mapping(doc_->scene().boxes[i], prepared_->boxes[i].textures,
+                                           baked_->scene.boxes[i].deformer.angle_deg));
+    } catch (const Error&) {
+      return false;  // beyond the baked angle, or of the other sign
+    }
+    try {
+      for (size_t i : mapped_) {
+        const BoxTextures& t = prepared_->boxes[i].textures;
+        renderer_->set_texture_map(i, t.texture_map, t.region, t.lipschitz);
+      }
+      for (size_t k = 0; k < changed.size(); ++k)
+        renderer_->set_texture_map(changed[k], maps[k].map, maps[k].region, maps[k].lipschitz);
+    } catch (const Error& e) {
+      message_ = e.what();
+      return false;
+    }
+    mapped_ = changed;
+    if (!changed.empty()) ++mapped_edits_;
+    dirty_ = true;
+    return true;
   }
 
   void take_result() {
@@ -195,6 +286,11 @@ class Editor {
       return;
     }
     prepared_ = r->prepared;
+    baked_.reset();
+    if (auto it = submitted_.find(r->generation); it != submitted_.end()) baked_ = it->second;
+    submitted_.erase(submitted_.begin(), submitted_.upper_bound(r->generation));
+    mapped_.clear();
+    ++bakes_shown_;
     warnings_.clear();
     for (const BakedBox& b : prepared_->boxes)
       for (const std::string& w : b.report.warning_messages()) warnings_.push_back(w);
@@ -211,6 +307,8 @@ class Editor {
     if (!camera_) camera_ = frame_bounds(mesh_bounds(prepared_->mesh()));
     shown_ = r->generation;
     dirty_ = true;
+    // Baked wider than the document (a twist's angle being dragged): show the document.
+    if (baked_ && baked_->doc != doc_->json()) try_map();
   }
 
   Camera view_camera() const {
@@ -264,12 +362,14 @@ class Editor {
     if (!doc_->can_undo()) return;
     doc_->undo();
     message_ = "undo";
+    try_map();
     submit();
   }
   void redo() {
     if (!doc_->can_redo()) return;
     doc_->redo();
     message_ = "redo";
+    try_map();
     submit();
   }
   void save() {
@@ -309,6 +409,8 @@ class Editor {
         glfwSetWindowShouldClose(window_, GLFW_TRUE);
       else if (!typing && !ctrl && k.key == GLFW_KEY_F)
         frame_view();
+      else if (!typing && !ctrl && k.key == GLFW_KEY_H)
+        show_handles_ = !show_handles_;
     }
     key_queue().clear();
   }
@@ -317,7 +419,24 @@ class Editor {
   void handle_mouse() {
     ImGuiIO& io = ImGui::GetIO();
     if (!camera_) return;
-    if (drag_button_ < 0 && !io.WantCaptureMouse && view_.contains(io.MousePos.x, io.MousePos.y)) {
+    const Eigen::Vector2d mouse(io.MousePos.x, io.MousePos.y);
+    const bool in_view = !io.WantCaptureMouse && view_.contains(mouse.x(), mouse.y());
+    hovered_.reset();
+    if (handle_drag_) {
+      drag_box_handle(mouse);
+      return;
+    }
+    if (drag_button_ < 0 && in_view) {
+      if (const Box* box = selected_box(); box && show_handles_)
+        hovered_ = pick_handle(*box, view_mapping(), mouse);
+      if (hovered_ && ImGui::IsMouseClicked(0) && !io.KeyShift) {
+        handle_drag_ = hovered_;
+        handle_start_ = *selected_box();
+        handle_from_ = mouse;
+        handle_edited_ = false;
+        return;
+      }
+      if (ImGui::IsMouseClicked(0) && select_box_at(mouse)) return;
       for (int b = 0; b < 3; ++b)
         if (ImGui::IsMouseClicked(b)) drag_button_ = b;
       if (io.MouseWheel != 0.0f) dolly(std::pow(0.9, io.MouseWheel));
@@ -351,6 +470,99 @@ class Editor {
       c.eye = c.target + offset;
     }
     dirty_ = true;
+  }
+
+  ViewMapping view_mapping() const {
+    return ViewMapping{view_camera(), view_.x, view_.y, std::max(1.0f, view_.w),
+                       std::max(1.0f, view_.h)};
+  }
+
+  const Box* selected_box() const {
+    const Scene& scene = doc_->scene();
+    return selected_ >= 0 && selected_ < int(scene.boxes.size()) ? &scene.boxes[selected_].box
+                                                                 : nullptr;
+  }
+
+  // A click on another box's centre dot selects that box.
+  bool select_box_at(const Eigen::Vector2d& mouse) {
+    const ViewMapping view = view_mapping();
+    const Scene& scene = doc_->scene();
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      const auto c = view.project(scene.boxes[i].box.centre);
+      if (int(i) != selected_ && c && (*c - mouse).norm() <= 8.0) {
+        selected_ = int(i);
+        return true;
+      }
+    }
+    return false;
+  }
+
+  // One step of a handle drag: the box it makes replaces the selected box's placement in the
+  // working document (as centre, half_extents and rotation_deg).
+  void drag_box_handle(const Eigen::Vector2d& mouse) {
+    // The release may come in the frame of the last move: that move counts, then the drag ends
+    // (commit_edit).
+    if (!ImGui::IsMouseDown(0)) handle_released_ = true;
+    hovered_ = handle_drag_;
+    active_ = "handle." + handle_drag_->name();
+    json& boxes = working_["boxes"];
+    if (selected_ >= int(boxes.size()) || !prepared_) return;
+    const double min_half = 2e-3 * mesh_bounds(prepared_->mesh()).diagonal().norm();
+    const Box b =
+        drag_handle(handle_start_, *handle_drag_, view_mapping(), handle_from_, mouse, min_half);
+    json& box = boxes[selected_];
+    for (const char* key : {"min", "max", "center", "centre", "half_extents"}) box.erase(key);
+    box["centre"] = {b.centre.x(), b.centre.y(), b.centre.z()};
+    box["half_extents"] = {b.half_extents.x(), b.half_extents.y(), b.half_extents.z()};
+    if (box.contains("rotation_deg") || !b.rotation.isIdentity(1e-12)) {
+      const Eigen::Vector3d r = euler_deg_of(b.rotation);
+      box["rotation_deg"] = {r.x(), r.y(), r.z()};
+    }
+  }
+
+  // The boxes' edges, the selected box's handles, over the viewport's image.
+  void draw_handles() {
+    if (!camera_ || !doc_ || !show_handles_) return;
+    ImDrawList* draw = ImGui::GetBackgroundDrawList();
+    draw->PushClipRect(ImVec2(view_.x, view_.y), ImVec2(view_.x + view_.w, view_.y + view_.h));
+    const ViewMapping view = view_mapping();
+    const Scene& scene = doc_->scene();
+    auto im = [](const Eigen::Vector2d& p) { return ImVec2(float(p.x()), float(p.y())); };
+    const ImU32 axis_colour[3] = {IM_COL32(230, 80, 80, 255), IM_COL32(90, 200, 90, 255),
+                                  IM_COL32(90, 140, 240, 255)};
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      const Box& box = scene.boxes[i].box;
+      const bool selected = int(i) == selected_;
+      const ImU32 edge = selected ? IM_COL32(255, 220, 90, 220) : IM_COL32(200, 200, 200, 110);
+      for (const auto& [a, b] : box_edges(box)) {
+        const auto pa = view.project(a), pb = view.project(b);
+        if (pa && pb) draw->AddLine(im(*pa), im(*pb), edge, selected ? 1.5f : 1.0f);
+      }
+      if (!selected) {
+        if (const auto c = view.project(box.centre))
+          draw->AddCircle(im(*c), 5.0f, IM_COL32(220, 220, 220, 160), 12, 1.5f);
+        continue;
+      }
+      for (int a = 0; a < 3; ++a) {
+        const std::vector<Eigen::Vector2d> ring = ring_polyline(box, a, view);
+        if (ring.empty()) continue;
+        std::vector<ImVec2> points;
+        for (const Eigen::Vector2d& p : ring) points.push_back(im(p));
+        const bool hot = hovered_ && *hovered_ == Handle{Handle::Kind::Ring, a};
+        draw->AddPolyline(points.data(), int(points.size()),
+                          hot ? IM_COL32(255, 255, 255, 255) : axis_colour[a], ImDrawFlags_Closed,
+                          hot ? 3.0f : 1.5f);
+      }
+      for (const PlacedHandle& h : place_handles(box, view)) {
+        if (h.handle.kind == Handle::Kind::Ring) continue;
+        const bool hot = hovered_ && *hovered_ == h.handle;
+        const ImU32 fill = h.handle.kind == Handle::Kind::Centre ? IM_COL32(240, 240, 240, 255)
+                                                                 : axis_colour[h.handle.axis];
+        draw->AddCircleFilled(im(h.pixel), hot ? 7.0f : 5.0f, fill, 16);
+        draw->AddCircle(im(h.pixel), hot ? 7.0f : 5.0f, IM_COL32(20, 20, 20, 255), 16, 1.0f);
+      }
+    }
+    draw->PopClipRect();
   }
 
   void dolly(double factor) {
@@ -474,8 +686,6 @@ class Editor {
   }
 
   void panel(float height) {
-    widgets_.clear();
-    active_.clear();
     ImGui::SetNextWindowPos(ImVec2(0, 0));
     ImGui::SetNextWindowSize(ImVec2(kPanelWidth, height - kStatusHeight));
     ImGui::Begin("raywarp", nullptr,
@@ -497,6 +707,9 @@ class Editor {
     ImGui::SameLine();
     if (ImGui::Button("Frame")) frame_view();
     remember("frame");
+    ImGui::SameLine();
+    ImGui::Checkbox("Handles", &show_handles_);
+    remember("handles");
     ImGui::Separator();
 
     json& boxes = working_["boxes"];
@@ -574,7 +787,9 @@ class Editor {
     ImGui::Separator();
     ImGui::TextWrapped(
         "Orbit: left drag. Pan: middle drag or Shift + left drag. Zoom: wheel or right drag. "
-        "F: frame the mesh. Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save, Ctrl+Q quit. Drop a "
+        "F: frame the mesh. Box handles (H shows or hides them): drag a face's dot to move that "
+        "face, the white centre dot to move the box, a ring to rotate it; click another box's "
+        "centre to select it. Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save, Ctrl+Q quit. Drop a "
         "scene or mesh file to open it.");
     ImGui::End();
   }
@@ -582,18 +797,33 @@ class Editor {
   // Takes the panel's changes as one edit; the steps of one drag of a widget are one edit.
   void commit_edit() {
     const ImGuiID active = ImGui::GetActiveID();
+    const bool dragging = active != 0 || (handle_drag_ && !handle_released_);
     if (working_ != doc_->json()) {
-      const bool merge = active != 0 && active == last_edit_id_;
+      const bool merge =
+          (active != 0 && active == last_edit_id_) || (handle_drag_ && handle_edited_);
+      if (handle_drag_) handle_edited_ = true;
       const std::string error = doc_->edit(working_, merge);
       if (error.empty()) {
         message_.clear();
-        submit();
+        // A twist's angle shows at once through M; while it is dragged, the bake of the exact
+        // angle waits for the drag's end.
+        if (try_map() && dragging)
+          unbaked_ = true;
+        else if (dragging && submit_widened())
+          unbaked_ = true;
+        else
+          submit();
       } else {
         message_ = error;
       }
       last_edit_id_ = active;
     }
     if (active == 0) last_edit_id_ = 0;
+    if (unbaked_ && !dragging) submit();
+    if (handle_released_) {
+      handle_drag_.reset();
+      handle_released_ = false;
+    }
   }
 
   void status_bar(float width, float height) {
@@ -633,9 +863,17 @@ class Editor {
                    {"bake_s", bake_s_},
                    {"texture_mib", texture_bytes_ / double(1 << 20)},
                    {"cancelled", baker_->cancelled()},
+                   {"mapped", !mapped_.empty()},
+                   {"mapped_edits", mapped_edits_},
+                   {"bakes_shown", bakes_shown_},
                    {"active", active_},
                    {"viewport", {image_rect_.x, image_rect_.y, image_rect_.w, image_rect_.h}}};
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
+    status["selected"] = selected_;
+    status["show_handles"] = show_handles_;
+    if (const Box* box = selected_box())
+      for (const PlacedHandle& h : place_handles(*box, view_mapping()))
+        status["handles"][h.handle.name()] = {h.pixel.x(), h.pixel.y()};
     int wx = 0, wy = 0;
     glfwGetWindowPos(window_, &wx, &wy);
     status["window"] = {wx, wy};  // where window coordinates (all the rectangles) start on screen
@@ -663,7 +901,8 @@ void glfw_error(int code, const char* text) {
 }  // namespace
 
 int run_editor(const EditOptions& options) {
-  Document document = Document::open(options.input);  // a bad file is said before any window
+  Document document =
+      Document::open(options.input, options.up_axis);  // a bad file is said before any window
   glfwSetErrorCallback(glfw_error);
   if (!glfwInit())
     throw Error(

@@ -81,10 +81,12 @@ Eigen::Matrix4d Camera::projection_matrix(double aspect) const {
   return p;
 }
 
-Ray Camera::pixel_ray(int x, int y, int W, int H) const {
-  // Pixel centre in normalised device coordinates; row 0 is the top of the image.
-  double ndc_x = (x + 0.5) / W * 2.0 - 1.0;
-  double ndc_y = 1.0 - (y + 0.5) / H * 2.0;
+Ray Camera::pixel_ray(int x, int y, int W, int H) const { return ray_at(x + 0.5, y + 0.5, W, H); }
+
+Ray Camera::ray_at(double x, double y, int W, int H) const {
+  // The point in normalised device coordinates; row 0 is the top of the image.
+  double ndc_x = x / W * 2.0 - 1.0;
+  double ndc_y = 1.0 - y / H * 2.0;
   double aspect = static_cast<double>(W) / H;
   Eigen::Vector3d f = view_direction();
   Eigen::Vector3d s = f.cross(up).normalized();

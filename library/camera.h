@@ -31,6 +31,9 @@ struct Camera {
   Eigen::Matrix4d projection_matrix(double aspect) const;
   // The ray through the centre of pixel (x, y) of a W x H image, row 0 at the top.
   Ray pixel_ray(int x, int y, int W, int H) const;
+  // The ray through the point (x, y) of a W x H image, in pixels from its top-left corner (a
+  // pixel's centre is at (x + 0.5, y + 0.5)).
+  Ray ray_at(double x, double y, int W, int H) const;
   double depth_of(const Eigen::Vector3d& p) const { return (p - eye).dot(view_direction()); }
 };
 

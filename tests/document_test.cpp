@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "base/error.h"
 #include "library/mesh.h"
 #include "library/scene.h"
 #include "tests/temp_folder.h"
@@ -72,6 +73,49 @@ TEST_F(DocumentTest, ABareMeshOpensWithATwistOnItsUpperHalf) {
   const Box& box = d.scene().boxes[0].box;
   EXPECT_NEAR(box.centre.y() - box.half_extents.y(), bounds.center().y(), 1e-9);
   EXPECT_GE(box.centre.y() + box.half_extents.y(), bounds.max().y());
+}
+
+TEST_F(DocumentTest, AZUpMeshOpensWithTheBoxOnItsUpperHalfAlongZ) {
+  fs::copy_file(kExamples / "meshes" / "bunny.ply", path("bunny.ply"));
+  const Document d = Document::open(path("bunny.ply"), 2);
+  const Eigen::AlignedBox3d bounds = mesh_bounds(load_mesh(path("bunny.ply")));
+  const Box& box = d.scene().boxes[0].box;
+  EXPECT_EQ(d.scene().boxes[0].deformer.axis, 2);
+  EXPECT_NEAR(box.centre.z() - box.half_extents.z(), bounds.center().z(), 1e-9);
+  EXPECT_GE(box.centre.y() + box.half_extents.y(), bounds.max().y());
+  EXPECT_LE(box.centre.y() - box.half_extents.y(), bounds.min().y());
+  EXPECT_TRUE(d.scene().camera->up.isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_THROW(Document::open(path("bunny.ply"), 3), Error);
+}
+
+TEST(TwistAngleChanges, OnlyATwistsAngleCountsAndNothingElse) {
+  const json was = {{"mesh", "m.ply"},
+                    {"boxes",
+                     {{{"min", {0, 0, 0}},
+                       {"max", {1, 1, 1}},
+                       {"deformer", {{"type", "twist"}, {"angle_deg", 90}}}},
+                      {{"min", {2, 0, 0}},
+                       {"max", {3, 1, 1}},
+                       {"deformer", {{"type", "bend"}, {"angle_deg", 30}}}}}}};
+  json now = was;
+  EXPECT_FALSE(twist_angle_changes(now, was).has_value());  // nothing changed
+  now["boxes"][0]["deformer"]["angle_deg"] = 45;
+  ASSERT_TRUE(twist_angle_changes(now, was).has_value());
+  EXPECT_EQ(*twist_angle_changes(now, was), std::vector<size_t>{0});
+  now["boxes"][0]["deformer"].erase("angle_deg");  // the default angle: still only the angle
+  EXPECT_TRUE(twist_angle_changes(now, was).has_value());
+  json bend = was;
+  bend["boxes"][1]["deformer"]["angle_deg"] = 40;  // a bend's angle needs a bake
+  EXPECT_FALSE(twist_angle_changes(bend, was).has_value());
+  json moved = now;
+  moved["boxes"][0]["max"][1] = 2;  // the box too
+  EXPECT_FALSE(twist_angle_changes(moved, was).has_value());
+  json axis = now;
+  axis["boxes"][0]["deformer"]["axis"] = "x";
+  EXPECT_FALSE(twist_angle_changes(axis, was).has_value());
+  json render = now;
+  render["render"] = {{"sampling", "linear"}};
+  EXPECT_FALSE(twist_angle_changes(render, was).has_value());
 }
 
 TEST_F(DocumentTest, SavedSceneLoadsWithItsCameraInlineAndItsMeshFound) {

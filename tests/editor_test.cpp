@@ -1,8 +1,10 @@
 // `raywarp edit` driven as a user drives it: a real X server (Xvfb), real mouse and key events
 // (xdotool), screenshots of the screen (ImageMagick's import). The test waits on the state the
 // editor publishes (--status-file: "idle" once state N is on screen), never on sleeps, and checks
-// the viewport's pixels: an edit changes the deformed region, undo restores it, redo brings the
-// edit back, and the saved scene renders through `raywarp render` to the viewport's image.
+// the viewport's pixels: dragging a box's face handle changes the deformed region, dragging the
+// twist angle shows through the texture map M with no bake (and close to the exact bake that
+// follows), undo restores the image, redo brings the edit back, and the saved scene renders
+// through `raywarp render` to the viewport's image.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <stb/stb_image.h>
@@ -202,30 +204,70 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   const Screenshot before = editor.screenshot("0_opened");
   ASSERT_GT(before.width, 0);
 
-  // Drag the twist angle's field to the right: one edit, whatever the number of steps.
+  // Drag the box's top face (its handle) up: one edit, whatever the number of steps.
   const long opened = s["generation"].get<long>();
-  // The press first, seen by the editor (the field is held), then the moves: a loaded machine
+  const int wx = s["window"][0].get<int>(), wy = s["window"][1].get<int>();
+  const int fx = wx + int(s["handles"]["face+y"][0].get<double>()),
+            fy = wy + int(s["handles"]["face+y"][1].get<double>());
+  auto at = [](int x, int y) { return std::to_string(x) + " " + std::to_string(y); };
+  // The press first, seen by the editor (the handle is held), then the moves: a loaded machine
   // must not fold the press and the moves into one frame, which would be a click.
-  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg"));
+  editor.xdotool("mousemove " + at(fx, fy));
   editor.xdotool("mousedown 1");
-  editor.wait_for([](const json& st) { return st.value("active", "") == "param.angle_deg"; });
-  for (int step = 1; step <= 4; ++step)
-    editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", 10 * step));
+  editor.wait_for([](const json& st) { return st.value("active", "") == "handle.face+y"; });
+  for (int step = 1; step <= 4; ++step) editor.xdotool("mousemove " + at(fx, fy - 10 * step));
   editor.xdotool("mouseup 1");
   s = editor.wait_idle_after(opened);
   EXPECT_EQ(s["edits"].get<int>(), 1);
-  const Screenshot dragged = editor.screenshot("1_dragged");
-  const double unchanged = share_within(before, dragged, viewport, 2);
-  std::printf("[figures] editor: the drag changed %.2f %% of the viewport\n",
-              100.0 * (1.0 - unchanged));
-  EXPECT_LT(unchanged, 0.99) << "the deformed region did not change";
+  const Screenshot moved = editor.screenshot("1_face_moved");
+  const double unmoved = share_within(before, moved, viewport, 2);
+  std::printf("[figures] editor: dragging the top face changed %.2f %% of the viewport\n",
+              100.0 * (1.0 - unmoved));
+  EXPECT_LT(unmoved, 0.99) << "the deformed region did not change";
 
-  // Undo: the first image again.
+  // Drag the twist angle's field to the left. Its first step bakes the box at a wider angle;
+  // every step after that is shown through the texture map M with no bake at all.
+  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg"));
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "param.angle_deg"; });
+  editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", -10));
+  s = editor.wait_for([](const json& st) {
+    return st.value("mapped", false) && st.value("shown", -1L) == st.value("generation", 0L);
+  });
+  const long mapped_edits = s["mapped_edits"].get<long>(), bakes = s["bakes_shown"].get<long>(),
+             generation = s["generation"].get<long>();
+  const Screenshot mapped_a = editor.screenshot("2_angle_mapped_a");
+  for (int step = 1; step <= 4; ++step)
+    editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", -10 - 20 * step));
+  s = editor.wait_for([&](const json& st) { return st.value("mapped_edits", 0L) > mapped_edits; });
+  const Screenshot mapped_b = editor.screenshot("2_angle_mapped_b");
+  s = editor.wait_for([](const json&) { return true; });
+  EXPECT_EQ(s["bakes_shown"].get<long>(), bakes) << "a bake was shown while the angle was dragged";
+  EXPECT_EQ(s["generation"].get<long>(), generation) << "a bake was submitted during the drag";
+  const double still_a = share_within(mapped_a, mapped_b, viewport, 2);
+  std::printf(
+      "[figures] editor: %ld angle steps shown through M with no bake changed %.2f %% "
+      "of the viewport\n",
+      s["mapped_edits"].get<long>() - mapped_edits, 100.0 * (1.0 - still_a));
+  EXPECT_LT(still_a, 0.99) << "the angle's steps did not show";
+  editor.xdotool("mouseup 1");
+  // The drag's end bakes the exact angle: the image through M was close to it.
+  s = editor.wait_idle_after(generation);
+  EXPECT_EQ(s["edits"].get<int>(), 2);
+  const Screenshot dragged = editor.screenshot("3_angle_baked");
+  const double close = share_within(mapped_b, dragged, viewport, 8);
+  std::printf(
+      "[figures] editor: the image through M matches the exact bake in %.3f %% of the "
+      "viewport within 8/255\n",
+      100.0 * close);
+  EXPECT_GE(close, 0.99);
+
+  // Undo: the image before the angle's drag again.
   editor.xdotool("mousemove " + centre_of(s, "frame", 0) + " key ctrl+z");
   s = editor.wait_idle_after(s["generation"].get<long>());
-  EXPECT_EQ(s["edits"].get<int>(), 0);
-  const Screenshot undone = editor.screenshot("2_undone");
-  const double restored = share_within(before, undone, viewport, 2);
+  EXPECT_EQ(s["edits"].get<int>(), 1);
+  const Screenshot undone = editor.screenshot("4_undone");
+  const double restored = share_within(moved, undone, viewport, 2);
   std::printf("[figures] editor: undo restored %.4f %% of the viewport within 2/255\n",
               100.0 * restored);
   EXPECT_GE(restored, 0.999);
@@ -233,9 +275,14 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   // Redo: the edit again.
   editor.xdotool("key ctrl+shift+z");
   s = editor.wait_idle_after(s["generation"].get<long>());
-  EXPECT_EQ(s["edits"].get<int>(), 1);
-  const Screenshot redone = editor.screenshot("3_redone");
-  EXPECT_GE(share_within(dragged, redone, viewport, 2), 0.999);
+  EXPECT_EQ(s["edits"].get<int>(), 2);
+  const Screenshot redone_with_handles = editor.screenshot("5_redone");
+  EXPECT_GE(share_within(dragged, redone_with_handles, viewport, 2), 0.999);
+
+  // Hide the handles (H): the viewport is then the renderer's image alone.
+  editor.xdotool("key h");
+  s = editor.wait_for([](const json& st) { return !st.value("show_handles", true); });
+  const Screenshot redone = editor.screenshot("6_no_handles");
 
   // Save, then render the saved scene through the command line at the viewport's size.
   editor.xdotool("key ctrl+s");
@@ -305,7 +352,7 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   s = editor.wait_for(
       [](const json& st) { return st.value("message", "").find("overlaps") != std::string::npos; });
   EXPECT_EQ(s["generation"].get<long>(), saved_generation);
-  EXPECT_EQ(s["edits"].get<int>(), 1);
+  EXPECT_EQ(s["edits"].get<int>(), 2);
   editor.xdotool("key ctrl+q");
   editor.stop();
 }
