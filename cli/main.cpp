@@ -346,6 +346,9 @@ int main(int argc, char** argv) {
                    "A mesh file's up axis, for the box placed on its upper half and the camera")
       ->transform(CLI::CheckedTransformer(std::map<std::string, int>{{"x", 0}, {"y", 1}, {"z", 2}}))
       ->capture_default_str();
+  edit->add_option("--shader-dir", eopt.shader_dir,
+                   "Read the shaders from DIR (as shaders/ of the source tree) and reload them "
+                   "when a file changes, compile errors shown in the window");
   edit->add_option("--cache-dir", eopt.cache_dir, "Bake cache folder (as for render)");
   edit->add_flag("--no-cache", eopt.no_cache, "Read and store no bake cache entry");
   edit->footer(

@@ -28,6 +28,7 @@
 #include "editor/handles.h"
 #include "gl/gl_api.h"
 #include "gl/renderer.h"
+#include "gl/shader_sources.h"
 #include "library/mesh.h"
 #include "library/texture_map.h"
 
@@ -82,6 +83,7 @@ class Editor {
     }
     baker_ = std::make_unique<Baker>(std::move(cache));
     renderer_ = std::make_unique<gl::Renderer>();
+    watch_shaders();
     if (!options.frame_log.empty()) frame_log_.open(options.frame_log, std::ios::trunc);
     show(std::move(document), "opened " + options.input);
   }
@@ -94,6 +96,7 @@ class Editor {
   void frame() {
     for (const std::string& file : dropped_files()) open(file);
     dropped_files().clear();
+    watch_shaders();
     take_result();
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
@@ -172,6 +175,11 @@ class Editor {
   std::string saved_;
   std::ofstream frame_log_;
   int drag_button_ = -1;
+  // --shader-dir: the files' names, times and sizes when last read, the compile error of the
+  // last reload ("" none), the reloads that compiled.
+  std::string shader_stamp_, shader_error_;
+  long shader_reloads_ = 0;
+  double next_shader_poll_ms_ = 0;
   // A drag of a box handle: the handle, the box as it was, where the drag began, and whether
   // it has made its edit yet (the later steps merge into it).
   std::optional<Handle> handle_drag_;
@@ -207,6 +215,33 @@ class Editor {
   }
 
   // Bakes the document as it is.
+  // Reloads the shaders from --shader-dir when a file there changed (polled every 250 ms). A
+  // file that does not compile leaves the shaders as they were and its error, with file and
+  // line, in the panel.
+  void watch_shaders() {
+    if (opt_.shader_dir.empty() || since_start_ms() < next_shader_poll_ms_) return;
+    next_shader_poll_ms_ = since_start_ms() + 250.0;
+    std::string stamp;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(opt_.shader_dir, ec)) {
+      if (e.path().extension() != ".glsl") continue;
+      stamp += e.path().filename().string() + " " +
+               std::to_string(e.last_write_time(ec).time_since_epoch().count()) + " " +
+               std::to_string(e.file_size(ec)) + "\n";
+    }
+    if (stamp == shader_stamp_) return;
+    shader_stamp_ = stamp;
+    try {
+      renderer_->set_shader_files(gl::read_shader_folder(opt_.shader_dir));
+      shader_error_.clear();
+      ++shader_reloads_;
+      message_ = "shaders read from " + opt_.shader_dir;
+      dirty_ = true;
+    } catch (const Error& e) {
+      shader_error_ = e.what();
+    }
+  }
+
   void submit() {
     unbaked_ = false;
     submit_scene(doc_->json(), doc_->scene(), false);
@@ -692,6 +727,11 @@ class Editor {
                  ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
                      ImGuiWindowFlags_NoTitleBar);
     ImGui::TextWrapped("%s", doc_->path().string().c_str());
+    if (!shader_error_.empty()) {
+      ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 110, 100, 255));
+      ImGui::TextWrapped("Shaders not reloaded: %s", shader_error_.c_str());
+      ImGui::PopStyleColor();
+    }
     ImGui::BeginDisabled(!doc_->can_undo());
     if (ImGui::Button("Undo")) undo();
     ImGui::EndDisabled();
@@ -864,6 +904,8 @@ class Editor {
                    {"texture_mib", texture_bytes_ / double(1 << 20)},
                    {"cancelled", baker_->cancelled()},
                    {"mapped", !mapped_.empty()},
+                   {"shader_error", shader_error_},
+                   {"shader_reloads", shader_reloads_},
                    {"mapped_edits", mapped_edits_},
                    {"bakes_shown", bakes_shown_},
                    {"active", active_},
@@ -901,8 +943,9 @@ void glfw_error(int code, const char* text) {
 }  // namespace
 
 int run_editor(const EditOptions& options) {
-  Document document =
-      Document::open(options.input, options.up_axis);  // a bad file is said before any window
+  // A bad file is said before any window.
+  Document document = Document::open(options.input, options.up_axis);
+  if (!options.shader_dir.empty()) gl::read_shader_folder(options.shader_dir);
   glfwSetErrorCallback(glfw_error);
   if (!glfwInit())
     throw Error(

@@ -157,7 +157,14 @@ std::string raycast_fragment_source(const BoxTextures& b, const RenderSettings& 
 
 struct Renderer::Impl {
   GLuint raster = 0;
-  std::map<unsigned long, GLuint> raycast;  // by Variant::key
+  std::map<unsigned long, GLuint> raycast;               // by Variant::key
+  std::map<unsigned long, std::string> raycast_defines;  // the defines of each, for a reload
+  std::shared_ptr<const ShaderFiles> files;              // null: the embedded ones
+  const ShaderFiles& shader_files() const { return files ? *files : ShaderFiles::embedded(); }
+
+  static std::string raster_defines() {
+    return "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
+  }
   GLuint mesh_vao = 0, mesh_vbo[2] = {0, 0}, mesh_ebo = 0;
   GLsizei mesh_indices = 0;
   GLuint cube_vao = 0, cube_vbo = 0, cube_ebo = 0;
@@ -210,12 +217,17 @@ struct Renderer::Impl {
   GLuint raycast_program(const Variant& variant) {
     auto found = raycast.find(variant.key());
     if (found != raycast.end()) return found->second;
-    GLuint program = link_program(ShaderFiles::embedded(), "raycast.vert.glsl", "raycast.frag.glsl",
-                                  variant.defines());
+    const GLuint program = link_raycast(shader_files(), variant.defines());
+    raycast.emplace(variant.key(), program);
+    raycast_defines.emplace(variant.key(), variant.defines());
+    return program;
+  }
+
+  static GLuint link_raycast(const ShaderFiles& table, const std::string& defines) {
+    GLuint program = link_program(table, "raycast.vert.glsl", "raycast.frag.glsl", defines);
     glUseProgram(program);
     for (const TextureUnitInfo& t : kTextureUnits)  // -1 (ignored): the variant reads none there
       glUniform1i(glGetUniformLocation(program, t.sampler), unit_number(t.unit));
-    raycast.emplace(variant.key(), program);
     return program;
   }
 
@@ -232,9 +244,8 @@ struct Renderer::Impl {
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
-  const std::string defines = "#define RAYWARP_MAX_BOXES " + std::to_string(kMaxBoxes) + "\n";
-  impl_->raster =
-      link_program(ShaderFiles::embedded(), "raster.vert.glsl", "raster.frag.glsl", defines);
+  impl_->raster = link_program(ShaderFiles::embedded(), "raster.vert.glsl", "raster.frag.glsl",
+                               Impl::raster_defines());
   // The unit cube [0, 1]^3, scaled onto each box's ray-cast region by the vertex shader.
   const float corners[8][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0},
                                {0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
@@ -374,6 +385,28 @@ void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
     }
     impl_->boxes.push_back(gpu);
   }
+}
+
+void Renderer::set_shader_files(const ShaderFiles& files) {
+  // Every program first, so that a file that does not compile changes nothing.
+  std::vector<GLuint> made;
+  std::map<unsigned long, GLuint> raycast;
+  try {
+    made.push_back(
+        link_program(files, "raster.vert.glsl", "raster.frag.glsl", Impl::raster_defines()));
+    for (const auto& [key, defines] : impl_->raycast_defines) {
+      made.push_back(Impl::link_raycast(files, defines));
+      raycast[key] = made.back();
+    }
+  } catch (...) {
+    for (GLuint p : made) glDeleteProgram(p);
+    throw;
+  }
+  glDeleteProgram(impl_->raster);
+  for (auto& [key, program] : impl_->raycast) glDeleteProgram(program);
+  impl_->raster = made.front();
+  impl_->raycast = std::move(raycast);
+  impl_->files = std::make_shared<const ShaderFiles>(files);
 }
 
 size_t Renderer::texture_bytes() const {

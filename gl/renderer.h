@@ -17,6 +17,8 @@
 
 namespace raywarp::gl {
 
+class ShaderFiles;
+
 struct FrameStats {
   double milliseconds = 0.0;  // both passes, from the first draw to glFinish
   long nonfinite_pixels = 0;  // NaN or Inf in colour or depth, replaced by background
@@ -53,6 +55,11 @@ class Renderer {
   // Renders one frame of width x height and reads it back.
   Image render(const Camera& camera, int width, int height, const RenderSettings& settings,
                FrameStats* stats = nullptr);
+  // Compiles the shaders of `files` (a table of the files of shaders/, e.g. read_shader_folder)
+  // in place of the current ones, at once: the mesh pass and every ray-cast variant compiled so
+  // far; variants first needed later compile from them too. Throws Error with the driver's log
+  // (file and line) when one does not compile or link; the current shaders then stay.
+  void set_shader_files(const ShaderFiles& files);
   // Bytes of GPU texture memory held for the boxes.
   size_t texture_bytes() const;
 

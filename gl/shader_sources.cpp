@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 #include <sstream>
@@ -327,6 +329,23 @@ std::string info_log(GLuint object, bool program) {
 ShaderFiles::ShaderFiles(const std::map<std::string, std::string>& texts) : texts_(texts) {
   names_.push_back(kPreamble);
   for (const auto& [name, text] : texts_) names_.push_back(name);
+}
+
+ShaderFiles read_shader_folder(const std::filesystem::path& folder) {
+  std::map<std::string, std::string> texts;
+  std::error_code ec;
+  std::filesystem::directory_iterator it(folder, ec);
+  if (ec) throw Error(folder.string() + ": cannot read the shader folder: " + ec.message());
+  for (const auto& entry : it) {
+    if (entry.path().extension() != ".glsl") continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    if (!in && !in.eof()) throw Error(entry.path().string() + ": cannot read it");
+    texts[entry.path().filename().string()] = std::move(text);
+  }
+  if (texts.empty())
+    throw Error(folder.string() + ": holds no .glsl file (give a copy of the source's shaders/)");
+  return ShaderFiles(texts);
 }
 
 const ShaderFiles& ShaderFiles::embedded() {

@@ -23,6 +23,7 @@
 //   log's lines, `S:L(C)` (Mesa), `S:L` and `S(L)` (NVIDIA), into `file.glsl:N(C)`,
 //   `file.glsl:N` (rewrite_info_log), before they throw.
 #pragma once
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -68,6 +69,11 @@ std::string assemble_shader(const ShaderFiles& files, const std::string& name,
                             const std::string& defines = "");
 // The same of the embedded files.
 std::string assemble_shader(const std::string& name, const std::string& defines = "");
+
+// The *.glsl files of `folder` as a table (a copy of shaders/ to edit, for `raywarp edit
+// --shader-dir`). Throws Error naming the folder when it cannot be read or holds no .glsl file,
+// or naming a file that cannot be read.
+ShaderFiles read_shader_folder(const std::filesystem::path& folder);
 
 // `text` with its #if/#ifdef/#ifndef/#elif/#else/#endif groups resolved against the #defines that
 // precede them (a subset of the C preprocessor: integer macros, defined(), !, + and -,

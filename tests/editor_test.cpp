@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -97,7 +98,7 @@ class EditorSession {
  public:
   explicit EditorSession(const fs::path& folder) : folder_(folder) {}
 
-  bool start(const fs::path& scene) {
+  bool start(const fs::path& scene, const std::string& options = "") {
     xvfb_ = std::make_unique<Child>(
         "Xvfb -displayfd 1 -screen 0 1280x800x24 -nolisten tcp 2>/dev/null");
     const std::string display = xvfb_->read_line();
@@ -107,7 +108,7 @@ class EditorSession {
     editor_ = std::make_unique<Child>(
         "env DISPLAY=" + display_ + " " + RAYWARP_BINARY + " edit " + scene.string() +
         " --width 1280 --height 800 --no-cache --status-file " + status_.string() +
-        " --frame-log " + (folder_ / "frames.log").string() + " > " +
+        " --frame-log " + (folder_ / "frames.log").string() + " " + options + " > " +
         (folder_ / "editor.log").string() + " 2>&1");
     return editor_->pid > 0;
   }
@@ -357,6 +358,68 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   editor.stop();
 }
 
+// --shader-dir: the editor reads the shaders from a folder and reloads them when a file changes.
+// A file that does not compile is reported in the window with its file and line, the last good
+// shaders keep drawing, and the fixed file is taken.
+TEST_F(Editor, ShaderFolderReloadsAndShowsCompileErrorsWithFileAndLine) {
+  for (const char* tool : {"Xvfb", "import"}) ASSERT_TRUE(have(tool)) << tool;
+  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
+  json scene = json::parse(std::ifstream(examples / "bunny_twist.json"));
+  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
+  if (scene["camera"].is_string())
+    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
+  const fs::path file = dir_ / "scene.json";
+  std::ofstream(file) << scene.dump(2);
+  const fs::path shaders = dir_ / "shaders";
+  fs::copy(fs::path(RAYWARP_SOURCE_DIR) / "shaders", shaders);
+  const fs::path shading = shaders / "shading.glsl";
+  const std::string original = [&] {
+    std::ifstream in(shading);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  const std::string lit = "0.2 + 0.8 * lambert";
+  const size_t at = original.find(lit);
+  ASSERT_NE(at, std::string::npos) << "shading.glsl has changed: update the test";
+  const long line = 1 + std::count(original.begin(), original.begin() + long(at), '\n');
+  auto write_shading = [&](const std::string& replacement) {
+    std::string text = original;
+    text.replace(at, lit.size(), replacement);
+    std::ofstream(shading, std::ios::trunc) << text;
+  };
+
+  EditorSession editor(dir_);
+  ASSERT_TRUE(editor.start(file, "--shader-dir " + shaders.string()));
+  json s = editor.wait_idle_after(0);
+  EXPECT_EQ(s.value("shader_reloads", 0L), 1);
+  EXPECT_EQ(s.value("shader_error", "?"), "");
+  editor.xdotool("key h");
+  s = editor.wait_for([](const json& st) { return !st.value("show_handles", true); });
+  const json viewport = s["viewport"];
+  const Screenshot good = editor.screenshot("shaders_0_read");
+
+  write_shading(lit + " +");  // a syntax error
+  s = editor.wait_for([](const json& st) { return !st.value("shader_error", "").empty(); }, 60);
+  const std::string error = s.value("shader_error", "");
+  std::printf("[figures] editor: the broken shader is reported as: %s\n", error.c_str());
+  EXPECT_NE(error.find("shading.glsl:" + std::to_string(line)), std::string::npos) << error;
+  const Screenshot broken = editor.screenshot("shaders_1_broken");
+  EXPECT_GE(share_within(good, broken, viewport, 2), 0.999) << "the last good shaders stopped";
+
+  write_shading("0.5 + 0.5 * lambert");  // brighter
+  s = editor.wait_for(
+      [](const json& st) {
+        return st.value("shader_error", "?").empty() && st.value("shader_reloads", 0L) == 2;
+      },
+      60);
+  const Screenshot brighter = editor.screenshot("shaders_2_fixed");
+  const double same = share_within(good, brighter, viewport, 2);
+  std::printf("[figures] editor: the reloaded shading changed %.2f %% of the viewport\n",
+              100.0 * (1.0 - same));
+  EXPECT_LT(same, 0.9);
+  editor.xdotool("key ctrl+q");
+  editor.stop();
+}
+
 TEST_F(Editor, BadInputOrNoDisplayIsAnErrorWithStatus2) {
   const std::string bin = RAYWARP_BINARY;
   std::ofstream(path("broken.json")) << "{\"mesh\": 3}";
@@ -370,6 +433,14 @@ TEST_F(Editor, BadInputOrNoDisplayIsAnErrorWithStatus2) {
   EXPECT_NE(said.find("mesh"), std::string::npos) << said;
 
   const fs::path scene = fs::path(RAYWARP_SOURCE_DIR) / "examples" / "bunny_twist.json";
+  const std::string no_shaders = "DISPLAY= " + bin + " edit " + scene.string() + " --shader-dir " +
+                                 path("nowhere") + " 2> " + path("c.txt");
+  status = std::system(no_shaders.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << no_shaders;
+  std::ifstream c(path("c.txt"));
+  const std::string said_c((std::istreambuf_iterator<char>(c)), {});
+  EXPECT_NE(said_c.find("nowhere"), std::string::npos) << said_c;
+
   const std::string headless = "env -u DISPLAY -u WAYLAND_DISPLAY " + bin + " edit " +
                                scene.string() + " 2> " + path("b.txt");
   status = std::system(headless.c_str());
