@@ -187,13 +187,9 @@ Box drag_handle(const Box& start, const Handle& handle, const ViewMapping& view,
       box.centre = start.centre + n * (h_new - h);
       return box;
     }
-    case Handle::Kind::Centre: {
-      const Eigen::Vector3d n = view.camera.view_direction();
-      const auto a = plane_hit(r0, start.centre, n), b = plane_hit(r1, start.centre, n);
-      if (!a || !b || !(*b - *a).allFinite()) return start;
-      box.centre = start.centre + (*b - *a);
+    case Handle::Kind::Centre:
+      box.centre = drag_point(start.centre, view, from, to);
       return box;
-    }
     case Handle::Kind::Ring: {
       const auto c = view.project(start.centre);
       if (!c) return start;
@@ -216,6 +212,29 @@ Box drag_handle(const Box& start, const Handle& handle, const ViewMapping& view,
     }
   }
   return box;
+}
+
+Eigen::Vector3d drag_point(const Eigen::Vector3d& start, const ViewMapping& view,
+                           const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+  const Eigen::Vector3d n = view.camera.view_direction();
+  const auto a = plane_hit(view.ray(from), start, n), b = plane_hit(view.ray(to), start, n);
+  if (!a || !b || !(*b - *a).allFinite()) return start;
+  return start + (*b - *a);
+}
+
+std::optional<Eigen::Vector3d> surface_point(const ViewMapping& view,
+                                             const std::vector<float>& depth, int width, int height,
+                                             const Eigen::Vector2d& pixel) {
+  const int ix = int(std::floor(pixel.x() - view.x)), iy = int(std::floor(pixel.y() - view.y));
+  if (ix < 0 || iy < 0 || ix >= width || iy >= height ||
+      depth.size() != size_t(width) * size_t(height))
+    return std::nullopt;
+  const double d = depth[size_t(iy) * width + ix];
+  if (!std::isfinite(d)) return std::nullopt;
+  const Ray r = view.camera.pixel_ray(ix, iy, width, height);
+  const double along = r.direction.dot(view.camera.view_direction());  // depth per unit of t
+  if (!(along > 0.0)) return std::nullopt;
+  return Eigen::Vector3d(r.origin + r.direction * ((d - view.camera.depth_of(r.origin)) / along));
 }
 
 Eigen::Vector3d euler_deg_of(const Eigen::Matrix3d& rotation) {

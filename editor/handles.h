@@ -69,6 +69,17 @@ std::optional<Handle> pick_handle(const Box& box, const ViewMapping& view,
 Box drag_handle(const Box& start, const Handle& handle, const ViewMapping& view,
                 const Eigen::Vector2d& from, const Eigen::Vector2d& to, double min_half);
 
+// Where dragging a point at `start` from window pixel `from` to `to` takes it: it moves in the
+// plane through `start` facing the camera.
+Eigen::Vector3d drag_point(const Eigen::Vector3d& start, const ViewMapping& view,
+                           const Eigen::Vector2d& from, const Eigen::Vector2d& to);
+
+// The point of the surface drawn at window pixel `pixel`, from the viewport's depth image (linear
+// eye depth, docs/conventions.md) of the camera `view`: none where the image shows nothing.
+std::optional<Eigen::Vector3d> surface_point(const ViewMapping& view,
+                                             const std::vector<float>& depth, int width, int height,
+                                             const Eigen::Vector2d& pixel);
+
 // The scene's rotation_deg of a rotation (R = Rz * Ry * Rx, degrees), the inverse of the scene
 // reader's.
 Eigen::Vector3d euler_deg_of(const Eigen::Matrix3d& rotation);

@@ -186,6 +186,18 @@ class Editor {
   Box handle_start_;
   Eigen::Vector2d handle_from_;
   bool handle_edited_ = false, handle_released_ = false;
+  // A drag of a control point's target: the point, where its target was, where the drag began.
+  struct PointDrag {
+    size_t index = 0;
+    Eigen::Vector3d start;
+    Eigen::Vector2d from;
+  };
+  std::optional<PointDrag> point_drag_;
+  std::optional<size_t> hovered_point_;
+  json last_pick_;  // the last point picked on the surface: where, and its source p' + D(p')
+  // The depth image of the viewport's last frame and its camera, for picking.
+  std::vector<float> shown_depth_;
+  Camera shown_camera_;
   std::optional<Handle> hovered_;
   bool show_handles_ = true;  // the boxes' edges and handles over the viewport (H)
 
@@ -367,6 +379,8 @@ class Editor {
       gl::FrameStats stats;
       const Image image = renderer_->render(c, c.width, c.height, doc_->scene().render, &stats);
       frame_ms_ = stats.milliseconds;
+      shown_depth_ = image.depth;
+      shown_camera_ = c;
       if (!texture_) {
         gl::glGenTextures(1, &texture_);
         gl::glBindTexture(GL_TEXTURE_2D, texture_);
@@ -457,12 +471,33 @@ class Editor {
     const Eigen::Vector2d mouse(io.MousePos.x, io.MousePos.y);
     const bool in_view = !io.WantCaptureMouse && view_.contains(mouse.x(), mouse.y());
     hovered_.reset();
+    hovered_point_.reset();
     if (handle_drag_) {
       drag_box_handle(mouse);
       return;
     }
+    if (point_drag_) {
+      drag_control_point(mouse);
+      return;
+    }
     if (drag_button_ < 0 && in_view) {
-      if (const Box* box = selected_box(); box && show_handles_)
+      if (json* points = selected_points()) {
+        if (ImGui::IsMouseClicked(0) && io.KeyCtrl) {
+          add_control_point(*points, mouse);
+          return;
+        }
+        if (show_handles_) hovered_point_ = pick_target(*points, mouse);
+        if (hovered_point_ && ImGui::IsMouseClicked(0) && !io.KeyShift) {
+          const json& to = (*points)[*hovered_point_]["to"];
+          point_drag_ = PointDrag{
+              *hovered_point_,
+              Eigen::Vector3d(to[0].get<double>(), to[1].get<double>(), to[2].get<double>()),
+              mouse};
+          handle_edited_ = false;
+          return;
+        }
+      }
+      if (const Box* box = selected_box(); box && show_handles_ && !hovered_point_)
         hovered_ = pick_handle(*box, view_mapping(), mouse);
       if (hovered_ && ImGui::IsMouseClicked(0) && !io.KeyShift) {
         handle_drag_ = hovered_;
@@ -555,6 +590,86 @@ class Editor {
     }
   }
 
+  // The control points of the selected box in the working document, when its deformer is
+  // control_points (a list of pairs); else null.
+  json* selected_points() {
+    json& boxes = working_["boxes"];
+    if (!boxes.is_array() || selected_ < 0 || selected_ >= int(boxes.size())) return nullptr;
+    json& d = boxes[selected_]["deformer"];
+    if (!d.is_object() || d.value("type", "") != "control_points" || !d.contains("points") ||
+        !d["points"].is_array())
+      return nullptr;
+    return &d["points"];
+  }
+
+  // Box i's "deformer" in the document (null when there is none).
+  json deformer_json(size_t i) const {
+    const json boxes = doc_->json().value("boxes", json::array());
+    if (!boxes.is_array() || i >= boxes.size() || !boxes[i].is_object()) return json();
+    return boxes[i].value("deformer", json());
+  }
+
+  static std::optional<Eigen::Vector3d> point_of(const json& j) {
+    if (!j.is_array() || j.size() != 3) return std::nullopt;
+    for (const json& v : j)
+      if (!v.is_number()) return std::nullopt;
+    return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
+  }
+
+  // The control point whose target's dot is within 8 pixels of the mouse.
+  std::optional<size_t> pick_target(const json& points, const Eigen::Vector2d& mouse) const {
+    const ViewMapping view = view_mapping();
+    for (size_t i = 0; i < points.size(); ++i)
+      if (const auto to = point_of(points[i].value("to", json())))
+        if (const auto p = view.project(*to); p && (*p - mouse).norm() <= 8.0) return i;
+    return std::nullopt;
+  }
+
+  // Ctrl + click on the deformed surface: a control point from the point of the undeformed mesh
+  // that shows there (p' + D(p'), p' read from the depth image) to p' itself, its target then
+  // dragged while the button is held.
+  void add_control_point(json& points, const Eigen::Vector2d& mouse) {
+    const std::string box_name = "box " + std::to_string(selected_);
+    if (busy() || !prepared_ || selected_ >= int(prepared_->boxes.size())) {
+      message_ = "control points: the bake is not finished; pick again when it is";
+      return;
+    }
+    const ViewMapping shown{shown_camera_, image_rect_.x, image_rect_.y, image_rect_.w,
+                            image_rect_.h};
+    const auto deformed =
+        surface_point(shown, shown_depth_, int(image_rect_.w), int(image_rect_.h), mouse);
+    if (!deformed) {
+      message_ = "control points: no surface under the mouse";
+      return;
+    }
+    const BoxTextures& t = prepared_->boxes[selected_].textures;
+    std::optional<Eigen::Vector3d> source = texture_preimage(t, *deformed);
+    if (!source) {
+      message_ = "control points: the surface there is not " + box_name +
+                 "'s deformed part; Ctrl + click inside it";
+      return;
+    }
+    // Within the box, as the scene reader asks of every source (interpolation may overshoot).
+    const Eigen::Vector3d h = t.box.half_extents * (1.0 - 1e-9);
+    *source = t.box.to_object(t.box.to_local(*source).cwiseMax(-h).cwiseMin(h));
+    auto j3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+    points.push_back({{"from", j3(*source)}, {"to", j3(*deformed)}});
+    last_pick_ = {{"deformed", j3(*deformed)}, {"source", j3(*source)}};
+    point_drag_ = PointDrag{points.size() - 1, *deformed, mouse};
+    handle_edited_ = false;
+  }
+
+  void drag_control_point(const Eigen::Vector2d& mouse) {
+    if (!ImGui::IsMouseDown(0)) handle_released_ = true;
+    hovered_point_ = point_drag_->index;
+    active_ = "point." + std::to_string(point_drag_->index);
+    json* points = selected_points();
+    if (!points || point_drag_->index >= points->size()) return;
+    const Eigen::Vector3d to =
+        drag_point(point_drag_->start, view_mapping(), point_drag_->from, mouse);
+    (*points)[point_drag_->index]["to"] = {to.x(), to.y(), to.z()};
+  }
+
   // The boxes' edges, the selected box's handles, over the viewport's image.
   void draw_handles() {
     if (!camera_ || !doc_ || !show_handles_) return;
@@ -587,6 +702,20 @@ class Editor {
         draw->AddPolyline(points.data(), int(points.size()),
                           hot ? IM_COL32(255, 255, 255, 255) : axis_colour[a], ImDrawFlags_Closed,
                           hot ? 3.0f : 1.5f);
+      }
+      const json d = deformer_json(i);
+      if (d.is_object() && d.value("type", "") == "control_points" && d.contains("points")) {
+        size_t k = 0;
+        for (const json& pt : d["points"]) {
+          const auto from = point_of(pt.value("from", json())),
+                     to = point_of(pt.value("to", json()));
+          const auto a = from ? view.project(*from) : std::nullopt;
+          const auto b = to ? view.project(*to) : std::nullopt;
+          const bool hot = hovered_point_ && *hovered_point_ == k++;
+          if (a && b) draw->AddLine(im(*a), im(*b), IM_COL32(240, 90, 220, 200), 1.5f);
+          if (a) draw->AddCircle(im(*a), 4.0f, IM_COL32(240, 240, 240, 220), 12, 1.5f);
+          if (b) draw->AddCircleFilled(im(*b), hot ? 7.0f : 5.0f, IM_COL32(240, 90, 220, 255), 16);
+        }
       }
       for (const PlacedHandle& h : place_handles(box, view)) {
         if (h.handle.kind == Handle::Kind::Ring) continue;
@@ -643,6 +772,17 @@ class Editor {
         const char* names[] = {"x", "y", "z"};
         if (ImGui::Combo(label.c_str(), &axis, names, 3)) d[p.key] = names[axis];
         remember(prefix + p.key);
+      } else if (p.kind == ParamKind::Points && d.contains(p.key) && d[p.key].is_array()) {
+        ImGui::Text("%zu control points", d[p.key].size());
+        ImGui::SameLine();
+        ImGui::BeginDisabled(d[p.key].size() <= 1);
+        if (ImGui::Button("Remove last") && d[p.key].size() > 1)
+          d[p.key].erase(d[p.key].size() - 1);
+        ImGui::EndDisabled();
+        remember(prefix + "remove_point");
+        ImGui::TextWrapped(
+            "Ctrl + click the deformed surface to add a point there; drag a magenta dot to move "
+            "its target.");
       } else if (d.contains(p.key)) {
         ImGui::TextDisabled("%s: %s", p.key.c_str(), d[p.key].dump().c_str());
       }
@@ -837,11 +977,12 @@ class Editor {
   // Takes the panel's changes as one edit; the steps of one drag of a widget are one edit.
   void commit_edit() {
     const ImGuiID active = ImGui::GetActiveID();
-    const bool dragging = active != 0 || (handle_drag_ && !handle_released_);
+    const bool viewport_drag = handle_drag_ || point_drag_;
+    const bool dragging = active != 0 || (viewport_drag && !handle_released_);
     if (working_ != doc_->json()) {
       const bool merge =
-          (active != 0 && active == last_edit_id_) || (handle_drag_ && handle_edited_);
-      if (handle_drag_) handle_edited_ = true;
+          (active != 0 && active == last_edit_id_) || (viewport_drag && handle_edited_);
+      if (viewport_drag) handle_edited_ = true;
       const std::string error = doc_->edit(working_, merge);
       if (error.empty()) {
         message_.clear();
@@ -862,6 +1003,7 @@ class Editor {
     if (unbaked_ && !dragging) submit();
     if (handle_released_) {
       handle_drag_.reset();
+      point_drag_.reset();
       handle_released_ = false;
     }
   }
@@ -913,6 +1055,15 @@ class Editor {
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
     status["selected"] = selected_;
     status["show_handles"] = show_handles_;
+    status["last_pick"] = last_pick_;
+    if (const json d = deformer_json(size_t(std::max(0, selected_)));
+        d.is_object() && d.contains("points") && d["points"].is_array())
+      for (const json& pt : d["points"]) {
+        const auto from = point_of(pt.value("from", json())), to = point_of(pt.value("to", json()));
+        const auto a = from ? view_mapping().project(*from) : std::nullopt;
+        const auto b = to ? view_mapping().project(*to) : std::nullopt;
+        if (a && b) status["points"].push_back({a->x(), a->y(), b->x(), b->y()});
+      }
     if (const Box* box = selected_box())
       for (const PlacedHandle& h : place_handles(*box, view_mapping()))
         status["handles"][h.handle.name()] = {h.pixel.x(), h.pixel.y()};

@@ -27,6 +27,17 @@ double implicit_background(const BoxTextures& b) {
   return b.uses_depth_cube ? b.depth_cube.far_depth : b.sdf.background;
 }
 
+std::optional<Eigen::Vector3d> texture_preimage(const BoxTextures& b, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d q = b.box.to_local(p);
+  if (b.moves_nothing) return b.box.contains_local(q) ? std::optional(p) : std::nullopt;
+  const Eigen::Vector3d m = (b.texture_map * q.homogeneous()).head<3>();
+  const Grid3<Eigen::Vector4f>& g = b.deformation.grid;
+  if (g.data.empty() || !Eigen::AlignedBox3d(g.origin, g.upper()).contains(m)) return std::nullopt;
+  const Eigen::Vector4d d = g.sample(m);
+  if (!(d[3] >= 0.5) || !d.allFinite()) return std::nullopt;
+  return b.box.to_object(q + d.head<3>());
+}
+
 double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p) {
   return b.uses_depth_cube ? depth_cube_value(b.depth_cube, p) : b.sdf.grid.sample(p).value();
 }

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <limits>
+#include <optional>
 #include <string>
 
 #include "base/box.h"
@@ -152,6 +153,12 @@ double implicit_spacing(const BoxTextures& b);
 // |f| the ray caster gives a sample outside the box's preimage (more than kSeamVoxels voxels):
 // the distance grid's background, or the depth cube's far depth.
 double implicit_background(const BoxTextures& b);
+// The preimage p' + D(M p') of a deformed point p' (object space), D read from the box's
+// deformation texture as the ray caster reads it (trilinear, valid where w >= 1/2): the point of
+// the undeformed mesh that shows at p'. None where the texture holds no preimage (outside its
+// grid, or w < 1/2); p' itself inside a box that moves nothing.
+std::optional<Eigen::Vector3d> texture_preimage(const BoxTextures& b, const Eigen::Vector3d& p);
+
 // f at p (box frame): the distance grid sampled trilinearly, or depth_cube_value.
 double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p);
 

@@ -22,6 +22,8 @@
 #include <thread>
 #include <vector>
 
+#include "library/bake.h"
+#include "library/scene.h"
 #include "tests/temp_folder.h"
 
 namespace raywarp {
@@ -354,6 +356,76 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
       [](const json& st) { return st.value("message", "").find("overlaps") != std::string::npos; });
   EXPECT_EQ(s["generation"].get<long>(), saved_generation);
   EXPECT_EQ(s["edits"].get<int>(), 2);
+  editor.xdotool("key ctrl+q");
+  editor.stop();
+}
+
+// Control points picked on the deformed surface: Ctrl + click adds a point whose source is the
+// point of the undeformed mesh that shows there (p' + D(p'), p' from the depth image), checked
+// against the deformer's exact forward map, and dragging moves its target; undo removes it.
+TEST_F(Editor, AControlPointIsPickedOnTheDeformedSurfaceAndDragged) {
+  for (const char* tool : {"Xvfb", "xdotool", "import"}) ASSERT_TRUE(have(tool)) << tool;
+  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
+  json scene = json::parse(std::ifstream(examples / "bunny_control_points.json"));
+  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
+  if (scene["camera"].is_string())
+    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
+  const fs::path file = dir_ / "scene.json";
+  std::ofstream(file) << scene.dump(2);
+  const Scene before_scene = load_scene(file);
+  const auto deformer = make_deformer(before_scene, 0);
+  const Box& box = before_scene.boxes[0].box;
+
+  EditorSession editor(dir_);
+  ASSERT_TRUE(editor.start(file));
+  json s = editor.wait_idle_after(0);
+  ASSERT_EQ(s["points"].size(), 2u);
+  const json viewport = s["viewport"];
+  const Screenshot before = editor.screenshot("points_0_opened");
+  // Below the box's centre: the first run of 12 pixels of the bunny's body (not the white
+  // background), in the deformed part.
+  const int wx = s["window"][0].get<int>(), wy = s["window"][1].get<int>();
+  const int cx = wx + int(s["handles"]["centre"][0].get<double>());
+  int cy = wy + int(s["handles"]["centre"][1].get<double>()) + 10, run = 0;
+  for (; cy < before.height && run < 12; ++cy) {
+    const unsigned char* px = &before.rgb[(static_cast<size_t>(cy) * before.width + cx) * 3];
+    run = (px[0] < 240 || px[1] < 240 || px[2] < 240) ? run + 1 : 0;
+  }
+  ASSERT_EQ(run, 12) << "no surface below the box's centre";
+  auto at = [](int x, int y) { return std::to_string(x) + " " + std::to_string(y); };
+  editor.xdotool("mousemove " + at(cx, cy));
+  editor.xdotool("keydown ctrl");
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "point.2"; });
+  for (int step = 1; step <= 4; ++step)
+    editor.xdotool("mousemove " + at(cx - 4 * step, cy - 10 * step));
+  editor.xdotool("mouseup 1");
+  editor.xdotool("keyup ctrl");
+  s = editor.wait_idle_after(s["generation"].get<long>());
+  EXPECT_EQ(s["edits"].get<int>(), 1);
+  ASSERT_EQ(s["points"].size(), 3u);
+  const json& pick = s["last_pick"];
+  ASSERT_TRUE(pick.contains("source")) << s.dump();
+  auto vec = [](const json& j) {
+    return Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
+  };
+  const Eigen::Vector3d source = vec(pick["source"]), deformed = vec(pick["deformed"]);
+  EXPECT_TRUE(box.contains(source));
+  // The exact forward map of the scene as it was takes the source to the picked point.
+  const Eigen::Vector3d mapped = box.to_object(deformer->forward(box.to_local(source)));
+  const double error = (mapped - deformed).norm() / box.diagonal();
+  std::printf(
+      "[figures] editor: the picked source maps to the picked point within %.4f %% of the "
+      "box diagonal\n",
+      100.0 * error);
+  EXPECT_LT(error, 0.005);
+  const Screenshot dragged = editor.screenshot("points_1_dragged");
+  EXPECT_LT(share_within(before, dragged, viewport, 2), 0.995) << "the surface did not move";
+
+  editor.xdotool("key ctrl+z");
+  s = editor.wait_idle_after(s["generation"].get<long>());
+  EXPECT_EQ(s["points"].size(), 2u);
+  EXPECT_EQ(s["edits"].get<int>(), 0);
   editor.xdotool("key ctrl+q");
   editor.stop();
 }
