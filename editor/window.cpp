@@ -26,6 +26,7 @@
 #include "editor/document.h"
 #include "editor/editor.h"
 #include "editor/handles.h"
+#include "editor/path_completion.h"
 #include "gl/gl_api.h"
 #include "gl/renderer.h"
 #include "gl/shader_sources.h"
@@ -171,6 +172,11 @@ class Editor {
   std::string active_;  // the widget held by the mouse (or typed into), by name
   int still_width_ = 1920, still_height_ = 1080;
   std::string still_path_, still_written_;
+  // The Open field: its text, its completions (for the text they were listed for), whether the
+  // list shows.
+  std::string open_path_, completions_for_ = "\n";
+  std::vector<std::string> completions_;
+  bool completions_open_ = false;
   std::string published_;
   std::string saved_;
   std::ofstream frame_log_;
@@ -220,6 +226,7 @@ class Editor {
 
   void show(Document document, const std::string& message) {
     doc_ = std::move(document);
+    open_path_ = doc_->path().string();
     camera_ = doc_->scene().camera;
     selected_ = 0;
     message_ = message;
@@ -827,6 +834,69 @@ class Editor {
     remember("delete_box");
   }
 
+  // Tab in the Open field: the path extended by what its completions share.
+  static int complete_on_tab(ImGuiInputTextCallbackData* data) {
+    if (data->EventFlag != ImGuiInputTextFlags_CallbackCompletion) return 0;
+    const std::string typed(data->Buf, size_t(data->BufTextLen));
+    const std::string completed = complete_path(typed);
+    if (completed != typed) {
+      data->DeleteChars(0, data->BufTextLen);
+      data->InsertChars(0, completed.c_str());
+    }
+    return 0;
+  }
+
+  // Open a scene or a mesh by its path: Tab completes it, the matches are listed under the field
+  // (a folder's opens it in the list, a file's opens the file), Enter or Open opens it.
+  void open_field() {
+    ImGui::SetNextItemWidth(-50.0f);
+    const bool enter = ImGui::InputText(
+        "##open", &open_path_,
+        ImGuiInputTextFlags_EnterReturnsTrue | ImGuiInputTextFlags_CallbackCompletion,
+        complete_on_tab);
+    const bool field_active = ImGui::IsItemActive();
+    remember("open.path");
+    ImGui::SameLine();
+    const bool clicked = ImGui::Button("Open");
+    remember("open");
+    if (enter || clicked) {
+      completions_open_ = false;
+      open(open_path_);
+      return;
+    }
+    if (field_active) completions_open_ = true;
+    if (!completions_open_) return;
+    if (completions_for_ != open_path_) {
+      completions_ = path_completions(open_path_, 32);
+      completions_for_ = open_path_;
+    }
+    if (completions_.empty()) {
+      if (!field_active) completions_open_ = false;
+      return;
+    }
+    const float rows = float(std::min<size_t>(completions_.size(), 8));
+    ImGui::BeginChild("completions", ImVec2(0, rows * ImGui::GetTextLineHeightWithSpacing() + 8),
+                      true);
+    std::string chosen;
+    for (const std::string& c : completions_) {
+      const fs::path p(c);
+      const std::string label =
+          c.back() == '/' ? p.parent_path().filename().string() + "/" : p.filename().string();
+      if (ImGui::Selectable(label.c_str())) chosen = c;
+    }
+    const bool hovered = ImGui::IsWindowHovered();
+    ImGui::EndChild();
+    if (!chosen.empty()) {
+      open_path_ = chosen;
+      if (chosen.back() != '/') {
+        completions_open_ = false;
+        open(chosen);
+        return;
+      }
+    }
+    if (!field_active && !hovered) completions_open_ = false;
+  }
+
   // Render a still of the current view at any size to a PNG (the view's aspect follows the size).
   void still_fields() {
     if (still_path_.empty()) {
@@ -866,7 +936,7 @@ class Editor {
     ImGui::Begin("raywarp", nullptr,
                  ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse |
                      ImGuiWindowFlags_NoTitleBar);
-    ImGui::TextWrapped("%s", doc_->path().string().c_str());
+    open_field();
     if (!shader_error_.empty()) {
       ImGui::PushStyleColor(ImGuiCol_Text, IM_COL32(255, 110, 100, 255));
       ImGui::TextWrapped("Shaders not reloaded: %s", shader_error_.c_str());
@@ -1055,6 +1125,8 @@ class Editor {
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
     status["selected"] = selected_;
     status["show_handles"] = show_handles_;
+    status["open_path"] = open_path_;
+    status["completions"] = completions_open_ ? completions_ : std::vector<std::string>();
     status["last_pick"] = last_pick_;
     if (const json d = deformer_json(size_t(std::max(0, selected_)));
         d.is_object() && d.contains("points") && d["points"].is_array())

@@ -426,6 +426,32 @@ TEST_F(Editor, AControlPointIsPickedOnTheDeformedSurfaceAndDragged) {
   s = editor.wait_idle_after(s["generation"].get<long>());
   EXPECT_EQ(s["points"].size(), 2u);
   EXPECT_EQ(s["edits"].get<int>(), 0);
+
+  // The Open field: Tab completes a typed path, Enter opens it; a file that does not load is
+  // said in the status line and the scene stays.
+  auto type_path = [&](const std::string& text) {
+    editor.xdotool("mousemove " + centre_of(s, "open.path"));
+    editor.xdotool("mousedown 1");
+    editor.wait_for([](const json& st) { return st.value("active", "") == "open.path"; });
+    editor.xdotool("mouseup 1");
+    editor.xdotool("key ctrl+a");
+    editor.xdotool("type '" + text + "'");
+  };
+  type_path((dir_ / "sce").string());
+  editor.xdotool("key Tab");
+  s = editor.wait_for([&](const json& st) { return st.value("open_path", "") == file.string(); });
+  EXPECT_FALSE(s["completions"].empty());
+  editor.xdotool("key Return");
+  s = editor.wait_for([&](const json& st) {
+    return st.value("message", "") == "opened " + file.string() && st.value("state", "") == "idle";
+  });
+  EXPECT_EQ(s["scene"].get<std::string>(), file.string());
+  type_path((dir_ / "missing.ply").string());
+  editor.xdotool("key Return");
+  s = editor.wait_for([](const json& st) {
+    return st.value("message", "").find("missing.ply") != std::string::npos;
+  });
+  EXPECT_EQ(s["scene"].get<std::string>(), file.string());
   editor.xdotool("key ctrl+q");
   editor.stop();
 }
