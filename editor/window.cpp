@@ -14,6 +14,7 @@
 #include <cmath>
 #include <deque>
 #include <fstream>
+#include <future>
 #include <map>
 #include <memory>
 #include <string>
@@ -32,6 +33,7 @@
 #include "gl/shader_sources.h"
 #include "library/mesh.h"
 #include "library/texture_map.h"
+#include "verify/ground_truth.h"
 
 namespace raywarp::editor {
 
@@ -99,6 +101,7 @@ class Editor {
     dropped_files().clear();
     watch_shaders();
     take_result();
+    take_measurement();
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
@@ -177,6 +180,17 @@ class Editor {
   std::string open_path_, completions_for_ = "\n";
   std::vector<std::string> completions_;
   bool completions_open_ = false;
+  // The error of the shown state against the scene's ground truth, measured on request in the
+  // background (verify/ground_truth.h), at up to 384 pixels wide.
+  struct Measurement {
+    long generation = 0;
+    int width = 0, height = 0;
+    double iou = 0, over_pct = 0, mean_depth_pct = 0, seconds = 0;
+    bool exact = false;
+    std::string kind, error;
+  };
+  std::future<Measurement> measuring_;
+  std::optional<Measurement> measured_;
   std::string published_;
   std::string saved_;
   std::ofstream frame_log_;
@@ -897,6 +911,99 @@ class Editor {
     if (!field_active && !hovered) completions_open_ = false;
   }
 
+  // Renders the view at up to 384 pixels wide here, then measures it against the ground truth in
+  // the background.
+  void measure_error() {
+    if (busy() || !prepared_ || !camera_ || measuring_.valid()) return;
+    const int w = std::min(384, int(view_.w));
+    const int h = std::max(1, int(std::lround(w * double(view_.h) / view_.w)));
+    Camera c = view_camera();
+    c.width = w;
+    c.height = h;
+    Image image;
+    try {
+      image = renderer_->render(c, w, h, doc_->scene().render);
+    } catch (const Error& e) {
+      message_ = e.what();
+      return;
+    }
+    const Scene scene = doc_->scene();
+    const std::shared_ptr<const PreparedScene> prepared = prepared_;
+    const long generation = shown_;
+    measuring_ = std::async(std::launch::async, [=, image = std::move(image)] {
+      Measurement m;
+      m.generation = generation;
+      m.width = w;
+      m.height = h;
+      const auto start = std::chrono::steady_clock::now();
+      try {
+        const Truth truth = ground_truth(scene, *prepared, c, w, h);
+        const ImageComparison cmp = compare_images(image, truth.image, 0.01 * truth.diagonal);
+        m.iou = cmp.iou;
+        m.over_pct = 100.0 * cmp.fraction_over;
+        m.mean_depth_pct = 100.0 * cmp.mean_depth_error / truth.diagonal;
+        m.kind = truth.kind;
+        m.exact = truth.kind.rfind("exact", 0) == 0;
+      } catch (const std::exception& e) {
+        m.error = e.what();
+      }
+      m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return m;
+    });
+  }
+
+  void take_measurement() {
+    if (!measuring_.valid() ||
+        measuring_.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+      return;
+    measured_ = measuring_.get();
+    if (!measured_->error.empty()) message_ = "ground truth: " + measured_->error;
+  }
+
+  // A texture resolution: "auto" (the automatic layout within its budget) or texels along the
+  // longest side. Writes obj[key] (and drops max_mib, which only the automatic one reads).
+  void resolution_combo(json& obj, const char* label, int current) {
+    static const int choices[] = {kAutoResolution, 32, 48, 64, 96, 128, 192, 256, 384, 512};
+    std::string shown = current == kAutoResolution ? "auto" : std::to_string(current);
+    if (ImGui::BeginCombo(label, shown.c_str())) {
+      for (int c : choices) {
+        const std::string name = c == kAutoResolution ? "auto" : std::to_string(c);
+        if (ImGui::Selectable(name.c_str(), c == current) && c != current) {
+          if (!obj.is_object()) obj = json::object();
+          if (c == kAutoResolution) {
+            obj["resolution"] = "auto";
+          } else {
+            obj["resolution"] = c;
+            obj.erase("max_mib");
+          }
+        }
+      }
+      ImGui::EndCombo();
+    }
+    remember(label);
+  }
+
+  // The box's implicit representation and the resolutions of its textures.
+  void texture_fields(json& box, const BoxSpec& spec, bool cuts) {
+    if (!ImGui::CollapsingHeader("Textures", ImGuiTreeNodeFlags_DefaultOpen)) return;
+    const char* kinds[] = {"sdf", "depth_cube"};
+    int kind = spec.implicit.type == "depth_cube" ? 1 : 0;
+    if (ImGui::Combo("implicit", &kind, kinds, 2)) {
+      json& implicit = box["implicit"];
+      if (!implicit.is_object()) implicit = json::object();
+      implicit["type"] = kinds[kind];
+      // The distance grid's band and margin mean nothing to a depth cube.
+      if (kind == 1)
+        for (const char* key : {"band_voxels", "margin_voxels"}) implicit.erase(key);
+    }
+    remember("implicit");
+    resolution_combo(box["implicit"], "implicit.resolution", spec.implicit.resolution);
+    resolution_combo(box["deformation"], "deformation.resolution", spec.deformation_resolution);
+    if (cuts) resolution_combo(box["alpha"], "alpha.resolution", spec.alpha_resolution);
+    for (const char* key : {"implicit", "deformation", "alpha"})
+      if (box.contains(key) && box[key].is_null()) box.erase(key);
+  }
+
   // Render a still of the current view at any size to a PNG (the view's aspect follows the size).
   void still_fields() {
     if (still_path_.empty()) {
@@ -1001,6 +1108,8 @@ class Editor {
           json fresh = chosen.examples.empty() ? json::object() : chosen.examples.front();
           fresh["type"] = chosen.name;
           d = fresh;
+          if (!chosen.cuts)  // the scene reader refuses a cut's settings on other deformers
+            for (const char* key : {"cut_mode", "shell_thickness", "alpha"}) box.erase(key);
           type = nullptr;  // its fields follow next frame, once parsed
         }
         remember("deformer");
@@ -1015,13 +1124,26 @@ class Editor {
               box["cut_mode"] = modes[mode];
               if (mode == 2 && !box.contains("shell_thickness"))
                 box["shell_thickness"] = 0.1 * spec.box.half_extents.minCoeff();
+              if (mode != 2) box.erase("shell_thickness");
             }
             remember("cut_mode");
+            if (spec.cut_mode == CutMode::ThickShell) {
+              double tau = spec.shell_thickness;
+              const double lo = 1e-4 * spec.box.half_extents.minCoeff(),
+                           hi = spec.box.half_extents.minCoeff();
+              if (ImGui::SliderScalar("shell_thickness", ImGuiDataType_Double, &tau, &lo, &hi,
+                                      "%.4g", ImGuiSliderFlags_Logarithmic))
+                box["shell_thickness"] = tau;
+              remember("shell_thickness");
+            }
           }
         }
       } else {
         ImGui::TextDisabled("deformer list: %s", d.dump().c_str());
       }
+      texture_fields(
+          box, spec,
+          find_deformer_type(spec.deformer.type) && find_deformer_type(spec.deformer.type)->cuts);
     }
     ImGui::Separator();
     json& render = working_["render"];
@@ -1032,6 +1154,19 @@ class Editor {
     if (ImGui::Combo("sampling", &method, methods, 4)) render["sampling"] = methods[method];
     remember("sampling");
     if (render.is_null()) working_.erase("render");
+    ImGui::BeginDisabled(busy() || measuring_.valid());
+    if (ImGui::Button(measuring_.valid() ? "Measuring..." : "Measure error")) measure_error();
+    ImGui::EndDisabled();
+    remember("measure");
+    if (measured_ && measured_->error.empty()) {
+      ImGui::TextWrapped(
+          "State #%ld against the %s ground truth (%dx%d, %.1f s): IoU %.4f, %.2f %% of pixels "
+          "over 1 %% of the diagonal in depth, mean depth error %.3f %%%s",
+          measured_->generation, measured_->exact ? "exact" : "sampled", measured_->width,
+          measured_->height, measured_->seconds, measured_->iou, measured_->over_pct,
+          measured_->mean_depth_pct, measured_->generation == shown_ ? "" : " (an earlier state)");
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", measured_->kind.c_str());
+    }
     ImGui::Separator();
     still_fields();
     ImGui::Separator();
@@ -1125,6 +1260,13 @@ class Editor {
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
     status["selected"] = selected_;
     status["show_handles"] = show_handles_;
+    status["measuring"] = measuring_.valid();
+    if (measured_)
+      status["measured"] = {
+          {"generation", measured_->generation}, {"iou", measured_->iou},
+          {"over_pct", measured_->over_pct},     {"mean_depth_pct", measured_->mean_depth_pct},
+          {"exact", measured_->exact},           {"kind", measured_->kind},
+          {"seconds", measured_->seconds},       {"error", measured_->error}};
     status["open_path"] = open_path_;
     status["completions"] = completions_open_ ? completions_ : std::vector<std::string>();
     status["last_pick"] = last_pick_;

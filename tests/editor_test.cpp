@@ -282,6 +282,26 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   const Screenshot redone_with_handles = editor.screenshot("5_redone");
   EXPECT_GE(share_within(dragged, redone_with_handles, viewport, 2), 0.999);
 
+  // The error against the exact ground truth, on request, measured in the background.
+  editor.xdotool("mousemove " + centre_of(s, "measure"));
+  editor.xdotool("mousedown 1");
+  editor.wait_for([](const json& st) { return st.value("active", "") == "measure"; });
+  editor.xdotool("mouseup 1");
+  const long shown = s["shown"].get<long>();
+  s = editor.wait_for([&](const json& st) {
+    return st.contains("measured") && st["measured"].value("generation", 0L) == shown;
+  });
+  const json measured = s["measured"];
+  std::printf(
+      "[figures] editor: against the exact ground truth IoU %.4f, %.2f %% of pixels over "
+      "1 %% of the diagonal, measured in %.2f s\n",
+      measured.value("iou", 0.0), measured.value("over_pct", 100.0),
+      measured.value("seconds", 0.0));
+  EXPECT_EQ(measured.value("error", "?"), "");
+  EXPECT_TRUE(measured.value("exact", false));
+  EXPECT_GE(measured.value("iou", 0.0), 0.99);
+  EXPECT_LT(measured.value("over_pct", 100.0), 2.0);
+
   // Hide the handles (H): the viewport is then the renderer's image alone.
   editor.xdotool("key h");
   s = editor.wait_for([](const json& st) { return !st.value("show_handles", true); });
