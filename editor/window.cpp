@@ -17,6 +17,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -66,8 +67,17 @@ std::vector<std::string>& dropped_files() {
   return files;
 }
 
+// The keys held down now (GLFW key codes), for the status file: a script that presses a key the
+// panels read (Enter, Tab) holds it until the window has seen it.
+std::set<int>& held_keys() {
+  static std::set<int> keys;
+  return keys;
+}
+
 void on_key(GLFWwindow*, int key, int, int action, int mods) {
   if (action == GLFW_PRESS || action == GLFW_REPEAT) key_queue().push_back({key, mods});
+  if (action == GLFW_PRESS) held_keys().insert(key);
+  if (action == GLFW_RELEASE) held_keys().erase(key);
 }
 
 void on_drop(GLFWwindow*, int count, const char** paths) {
@@ -134,7 +144,10 @@ class Editor {
     publish();
   }
 
-  bool busy() const { return baker_->progress().busy || shown_ < generation_ || unbaked_; }
+  // A bake under way or due, or a drag held (its end makes the edit's last step).
+  bool busy() const {
+    return baker_->progress().busy || shown_ < generation_ || unbaked_ || held_drag_;
+  }
 
  private:
   EditOptions opt_;
@@ -219,6 +232,7 @@ class Editor {
   std::vector<float> shown_depth_;
   Camera shown_camera_;
   std::optional<Handle> hovered_;
+  bool held_drag_ = false;    // the mouse holds a field or a handle
   bool show_handles_ = true;  // the boxes' edges and handles over the viewport (H)
 
   double since_start_ms() const {
@@ -960,6 +974,53 @@ class Editor {
     if (!measured_->error.empty()) message_ = "ground truth: " + measured_->error;
   }
 
+  static json twist_example() { return {{"type", "twist"}, {"axis", "y"}, {"angle_deg", 45}}; }
+
+  // A list of deformers, applied in order (continuous ones only: the scene reader refuses a cut
+  // in a list): each one's type and parameters, Remove, and Then add.
+  void deformer_list(json& d, const BoxSpec& spec) {
+    std::vector<const DeformerType*> types;
+    std::vector<const char*> names;
+    for (const DeformerType& t : deformer_types())
+      if (!t.cuts) {
+        types.push_back(&t);
+        names.push_back(t.name.c_str());
+      }
+    std::optional<size_t> remove;
+    for (size_t k = 0; k < d.size(); ++k) {
+      if (!d[k].is_object()) continue;
+      ImGui::PushID(int(k));
+      ImGui::Separator();
+      const DeformerType* type = find_deformer_type(d[k].value("type", ""));
+      int current = 0;
+      for (size_t t = 0; t < types.size(); ++t)
+        if (types[t] == type) current = int(t);
+      const std::string label = "deformer " + std::to_string(k);
+      if (ImGui::Combo(label.c_str(), &current, names.data(), int(names.size()))) {
+        json fresh =
+            types[current]->examples.empty() ? json::object() : types[current]->examples.front();
+        fresh["type"] = types[current]->name;
+        d[k] = fresh;
+        type = nullptr;
+      }
+      remember("deformer." + std::to_string(k));
+      const DeformerSpec* parsed = k == 0                     ? &spec.deformer
+                                   : k - 1 < spec.then.size() ? &spec.then[k - 1]
+                                                              : nullptr;
+      if (type && parsed && parsed->type == type->name)
+        deformer_fields(d[k], *type, *parsed, "param." + std::to_string(k) + ".");
+      if (ImGui::Button("Remove")) remove = k;
+      remember("remove_deformer." + std::to_string(k));
+      ImGui::PopID();
+    }
+    if (remove) {
+      d.erase(*remove);
+      if (d.size() == 1) d = d[0];  // one deformer: the plain form
+    }
+    if (d.is_array() && ImGui::Button("Then add a deformer")) d.push_back(twist_example());
+    remember("then_add");
+  }
+
   // A texture resolution: "auto" (the automatic layout within its budget) or texels along the
   // longest side. Writes obj[key] (and drops max_mib, which only the automatic one reads).
   void resolution_combo(json& obj, const char* label, int current) {
@@ -1138,8 +1199,11 @@ class Editor {
             }
           }
         }
-      } else {
-        ImGui::TextDisabled("deformer list: %s", d.dump().c_str());
+        if (type && !type->cuts && ImGui::Button("Then add a deformer"))
+          d = json::array({d, twist_example()});
+        remember("then_add");
+      } else if (d.is_array()) {
+        deformer_list(d, spec);
       }
       texture_fields(
           box, spec,
@@ -1205,6 +1269,9 @@ class Editor {
       last_edit_id_ = active;
     }
     if (active == 0) last_edit_id_ = 0;
+    // A drag that has made an edit and is still held (not a button pressed).
+    held_drag_ = ImGui::IsMouseDown(0) &&
+                 ((active != 0 && active == last_edit_id_) || (viewport_drag && !handle_released_));
     if (unbaked_ && !dragging) submit();
     if (handle_released_) {
       handle_drag_.reset();
@@ -1260,6 +1327,8 @@ class Editor {
     for (const auto& [name, r] : widgets_) status["widgets"][name] = {r.x, r.y, r.w, r.h};
     status["selected"] = selected_;
     status["show_handles"] = show_handles_;
+    status["keys_held"] = std::vector<int>(held_keys().begin(), held_keys().end());
+    status["mouse"] = {ImGui::GetIO().MousePos.x, ImGui::GetIO().MousePos.y};
     status["measuring"] = measuring_.valid();
     if (measured_)
       status["measured"] = {

@@ -145,6 +145,21 @@ class EditorSession {
     });
   }
 
+  // Presses `key` (an X keysym name; `code` its GLFW key code), with `modifier` held, and
+  // releases it once the window has seen it held: the panels read some keys (Enter, Tab, Ctrl+A
+  // in a text field) as a state sampled once a frame, which a press and release in one frame miss.
+  void tap(const std::string& key, int code, const std::string& modifier = "") {
+    if (!modifier.empty()) xdotool("keydown " + modifier);
+    xdotool("keydown " + key);
+    wait_for([code](const json& st) {
+      for (const json& k : st.value("keys_held", json::array()))
+        if (k.get<int>() == code) return true;
+      return false;
+    });
+    xdotool("keyup " + key);
+    if (!modifier.empty()) xdotool("keyup " + modifier);
+  }
+
   void xdotool(const std::string& args) {
     const std::string cmd = "DISPLAY=" + display_ + " xdotool " + args;
     EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
@@ -184,6 +199,9 @@ std::string centre_of(const json& status, const std::string& widget, int dx = 0)
 }
 
 class Editor : public TempFolderTest {};
+
+// GLFW's key codes, as the status file's keys_held gives them.
+constexpr int kKeyA = 65, kKeyEnter = 257, kKeyTab = 258;
 
 TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   for (const char* tool : {"Xvfb", "xdotool", "import"})
@@ -242,7 +260,13 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
   const Screenshot mapped_a = editor.screenshot("2_angle_mapped_a");
   for (int step = 1; step <= 4; ++step)
     editor.xdotool("mousemove " + centre_of(s, "param.angle_deg", -10 - 20 * step));
-  s = editor.wait_for([&](const json& st) { return st.value("mapped_edits", 0L) > mapped_edits; });
+  // Every move seen (the mouse where the last one put it), and shown through M.
+  const double last_x = s["widgets"]["param.angle_deg"][0].get<double>() +
+                        0.5 * s["widgets"]["param.angle_deg"][2].get<double>() - 90.0;
+  s = editor.wait_for([&](const json& st) {
+    return st.value("mapped_edits", 0L) > mapped_edits && st.contains("mouse") &&
+           std::abs(st["mouse"][0].get<double>() - int(last_x)) < 1.5;
+  });
   const Screenshot mapped_b = editor.screenshot("2_angle_mapped_b");
   s = editor.wait_for([](const json&) { return true; });
   EXPECT_EQ(s["bakes_shown"].get<long>(), bakes) << "a bake was shown while the angle was dragged";
@@ -340,9 +364,9 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
     editor.xdotool("mousedown 1");
     editor.wait_for([&](const json& st) { return st.value("active", "") == field; });
     editor.xdotool("mouseup 1");
-    editor.xdotool("key ctrl+a");
+    editor.tap("a", kKeyA, "ctrl");
     editor.xdotool(std::string("type ") + value);
-    editor.xdotool("key Return");
+    editor.tap("Return", kKeyEnter);
   }
   editor.xdotool("mousemove " + centre_of(s, "still.render"));
   editor.xdotool("mousedown 1");
@@ -454,20 +478,20 @@ TEST_F(Editor, AControlPointIsPickedOnTheDeformedSurfaceAndDragged) {
     editor.xdotool("mousedown 1");
     editor.wait_for([](const json& st) { return st.value("active", "") == "open.path"; });
     editor.xdotool("mouseup 1");
-    editor.xdotool("key ctrl+a");
+    editor.tap("a", kKeyA, "ctrl");
     editor.xdotool("type '" + text + "'");
   };
   type_path((dir_ / "sce").string());
-  editor.xdotool("key Tab");
+  editor.tap("Tab", kKeyTab);
   s = editor.wait_for([&](const json& st) { return st.value("open_path", "") == file.string(); });
   EXPECT_FALSE(s["completions"].empty());
-  editor.xdotool("key Return");
+  editor.tap("Return", kKeyEnter);
   s = editor.wait_for([&](const json& st) {
     return st.value("message", "") == "opened " + file.string() && st.value("state", "") == "idle";
   });
   EXPECT_EQ(s["scene"].get<std::string>(), file.string());
   type_path((dir_ / "missing.ply").string());
-  editor.xdotool("key Return");
+  editor.tap("Return", kKeyEnter);
   s = editor.wait_for([](const json& st) {
     return st.value("message", "").find("missing.ply") != std::string::npos;
   });
