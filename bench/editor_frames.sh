@@ -59,10 +59,14 @@ wait_idle "$gen"
 sleep 0.5
 echo "viewport: $(grep -o '"viewport":\[[^]]*\]' "$work/status.json")"
 echo "bake of the edit: $(field bake_s) s; viewport render: $(field frame_ms) ms"
-# Gaps between consecutive frames that both fall while the bake runs, and the whole run's longest
-# gap (which includes the frame that uploads and renders the new textures).
-awk -v from="$start_ms" '$1 > from {
-    if (prev != "") { g = $1 - prev; if (g > gap) gap = g; if ($3 == 1 && prev_busy == 1 && g > busy_gap) busy_gap = g }
-    prev = $1; prev_busy = $3; n++; busy += $3 }
-  END { printf "frames while it baked: %d, longest gap between them: %.1f ms; longest gap over the edit (with the new image'"'"'s upload and render): %.1f ms\n", busy, busy_gap, gap }' \
+# Gaps between consecutive frames that both fall while the bake runs, and the time from the
+# bake's last frame to the frame that shows the new image (it uploads and renders the new
+# textures). Before the bake, frames come as the drag's events do; after the new image the window
+# waits for input, showing nothing new.
+awk -v from="$start_ms" '$1 > from && !done {
+    if (prev != "" && $3 == 1 && prev_busy == 1 && $1 - prev > busy_gap) busy_gap = $1 - prev
+    if (seen_busy && $3 == 0 && $2 > 0) { done = 1; shown_after = $1 - last_busy }
+    if ($3 == 1) { seen_busy = 1; last_busy = $1 }
+    prev = $1; prev_busy = $3; busy += $3 }
+  END { printf "frames while it baked: %d, longest gap between them: %.1f ms; the new image shown %.1f ms after the bake'"'"'s last frame\n", busy, busy_gap, shown_after }' \
   "$work/frames.log"

@@ -568,7 +568,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         }
         const Mesh m = object_space_mesh(base, p.levels);
         renderer.set_mesh(m);
-        renderer.set_boxes({});
+        renderer.set_boxes(std::vector<BoxTextures>{});
         r.triangles = static_cast<long>(m.F.rows());
         r.memory_bytes = size_t(m.V.rows()) * 6 * sizeof(float) + size_t(m.F.rows()) * 3 * 4;
       } else {

@@ -6,7 +6,8 @@
 
 namespace raywarp::editor {
 
-Baker::Baker(std::unique_ptr<BakeCache> cache) : cache_(std::move(cache)) {
+Baker::Baker(std::unique_ptr<BakeCache> cache, std::function<void()> on_done)
+    : cache_(std::move(cache)), on_done_(std::move(on_done)) {
   worker_ = std::thread([this] { run(); });
 }
 
@@ -88,10 +89,13 @@ void Baker::run() {
     }
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const std::lock_guard lock(mutex_);
-    current_ = nullptr;
-    progress_.busy = pending_.has_value();
-    if (finished) done_ = std::move(result);
+    {
+      const std::lock_guard lock(mutex_);
+      current_ = nullptr;
+      progress_.busy = pending_.has_value();
+      if (finished) done_ = std::move(result);
+    }
+    if (finished && on_done_) on_done_();
   }
 }
 

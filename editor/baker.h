@@ -4,6 +4,7 @@
 // and progress and never waits on a bake.
 #pragma once
 #include <condition_variable>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -18,8 +19,9 @@ namespace raywarp::editor {
 
 class Baker {
  public:
-  // `cache`: the on-disk bake cache, or null for none.
-  explicit Baker(std::unique_ptr<BakeCache> cache);
+  // `cache`: the on-disk bake cache, or null for none. `on_done` (may be empty) is called from the
+  // worker thread when a result is ready, e.g. to wake the window's event loop.
+  explicit Baker(std::unique_ptr<BakeCache> cache, std::function<void()> on_done = {});
   ~Baker();
   Baker(const Baker&) = delete;
   Baker& operator=(const Baker&) = delete;
@@ -51,6 +53,7 @@ class Baker {
  private:
   void run();
   std::unique_ptr<BakeCache> cache_;
+  std::function<void()> on_done_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   struct Job {

@@ -94,7 +94,9 @@ class Editor {
           options.cache_dir.empty() ? BakeCache::default_dir() : fs::path(options.cache_dir);
       if (!dir.empty()) cache = std::make_unique<BakeCache>(dir);
     }
-    baker_ = std::make_unique<Baker>(std::move(cache));
+    // A finished bake wakes the event loop at once (glfwPostEmptyEvent may be called from any
+    // thread).
+    baker_ = std::make_unique<Baker>(std::move(cache), [] { glfwPostEmptyEvent(); });
     renderer_ = std::make_unique<gl::Renderer>();
     watch_shaders();
     if (!options.frame_log.empty()) frame_log_.open(options.frame_log, std::ios::trunc);
@@ -381,7 +383,9 @@ class Editor {
         renderer_->set_mesh(prepared_->mesh());
         renderer_mesh_ = &prepared_->mesh();
       }
-      renderer_->set_boxes(prepared_->textures());
+      std::vector<const BoxTextures*> textures;
+      for (const BakedBox& b : prepared_->boxes) textures.push_back(&b.textures);
+      renderer_->set_boxes(textures);
       texture_bytes_ = renderer_->texture_bytes();
     } catch (const Error& e) {
       message_ = e.what();

@@ -318,11 +318,18 @@ void Renderer::set_texture_map(size_t box, const Eigen::Matrix4d& texture_map,
 }
 
 void Renderer::set_boxes(const std::vector<BoxTextures>& boxes) {
+  std::vector<const BoxTextures*> pointers;
+  for (const BoxTextures& b : boxes) pointers.push_back(&b);
+  set_boxes(pointers);
+}
+
+void Renderer::set_boxes(const std::vector<const BoxTextures*>& boxes) {
   if (boxes.size() > static_cast<size_t>(kMaxBoxes))
     throw Error("at most " + std::to_string(kMaxBoxes) + " boxes per scene, got " +
                 std::to_string(boxes.size()));
   impl_->release_boxes();
-  for (const auto& b : boxes) {
+  for (const BoxTextures* box : boxes) {
+    const BoxTextures& b = *box;
     BoxGpu gpu;
     BoxTextures& d = gpu.data;
     d.box = b.box;

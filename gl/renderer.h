@@ -46,7 +46,8 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   void set_mesh(const Mesh& mesh);
-  void set_boxes(const std::vector<BoxTextures>& boxes);  // uploads the textures
+  void set_boxes(const std::vector<BoxTextures>& boxes);         // uploads the textures
+  void set_boxes(const std::vector<const BoxTextures*>& boxes);  // the same, with no copy
   // Moves box `box`'s deformation texture by the map M of eq. 2 (BoxTextures::texture_map), with
   // the region rays are cast over and the bound of |I + J_D| that go with it; no texel is
   // uploaded again.
