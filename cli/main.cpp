@@ -353,7 +353,8 @@ int main(int argc, char** argv) {
   edit->add_flag("--no-cache", eopt.no_cache, "Read and store no bake cache entry");
   edit->footer(
       "Mouse: left drag orbits, middle drag (or Shift + left) pans, the wheel or a right drag "
-      "zooms; F frames the mesh. Drag a box's handles: a face's dot moves that face, the centre "
+      "zooms; F frames the mesh, Shift+F the selected box. Drag a box's handles: a face's dot "
+      "moves that face, the centre "
       "moves the box, a ring rotates it.\nKeys: Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save (the "
       "camera "
       "inline, at the viewport's size), Ctrl+Q quit.\nExample: raywarp edit "

@@ -469,9 +469,15 @@ class Editor {
       message_ = e.what();
     }
   }
-  void frame_view() {
+  // Frames the mesh, or (`selection`) the selected box, keeping the direction of view.
+  void frame_view(bool selection = false) {
     if (!prepared_ || !camera_) return;
-    const Camera f = frame_bounds(mesh_bounds(prepared_->mesh()), camera_->fov_y_deg);
+    Eigen::AlignedBox3d bounds = mesh_bounds(prepared_->mesh());
+    if (const Box* box = selected_box(); selection && box) {
+      bounds.setEmpty();
+      for (const auto& [a, b] : box_edges(*box)) bounds.extend(a).extend(b);
+    }
+    const Camera f = frame_bounds(bounds, camera_->fov_y_deg);
     const double distance = (f.eye - f.target).norm();
     const Eigen::Vector3d dir = (camera_->eye - camera_->target).normalized();
     camera_->target = f.target;
@@ -496,7 +502,7 @@ class Editor {
       else if (ctrl && k.key == GLFW_KEY_Q)
         glfwSetWindowShouldClose(window_, GLFW_TRUE);
       else if (!typing && !ctrl && k.key == GLFW_KEY_F)
-        frame_view();
+        frame_view(shift);
       else if (!typing && !ctrl && k.key == GLFW_KEY_H)
         show_handles_ = !show_handles_;
     }
@@ -1240,7 +1246,8 @@ class Editor {
     ImGui::Separator();
     ImGui::TextWrapped(
         "Orbit: left drag. Pan: middle drag or Shift + left drag. Zoom: wheel or right drag. "
-        "F: frame the mesh. Box handles (H shows or hides them): drag a face's dot to move that "
+        "F: frame the mesh, Shift+F the box. Box handles (H shows or hides them): drag a face's "
+        "dot to move that "
         "face, the white centre dot to move the box, a ring to rotate it; click another box's "
         "centre to select it. Ctrl+Z undo, Ctrl+Shift+Z redo, Ctrl+S save, Ctrl+Q quit. Drop a "
         "scene or mesh file to open it.");

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -400,6 +401,20 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
       [](const json& st) { return st.value("message", "").find("overlaps") != std::string::npos; });
   EXPECT_EQ(s["generation"].get<long>(), saved_generation);
   EXPECT_EQ(s["edits"].get<int>(), 2);
+
+  // Shift+F frames the selected box: its centre comes to the middle of the viewport.
+  auto off_centre = [](const json& st) {
+    const json &c = st["handles"]["centre"], &v = st["viewport"];
+    return std::hypot(c[0].get<double>() - (v[0].get<double>() + 0.5 * v[2].get<double>()),
+                      c[1].get<double>() - (v[1].get<double>() + 0.5 * v[3].get<double>()));
+  };
+  const double before_framing = off_centre(s);
+  editor.xdotool("key shift+f");
+  s = editor.wait_for([&](const json& st) { return off_centre(st) < 1.0; });
+  std::printf(
+      "[figures] editor: Shift+F brought the box's centre from %.1f to %.2f pixels off the "
+      "viewport's middle\n",
+      before_framing, off_centre(s));
   editor.xdotool("key ctrl+q");
   editor.stop();
 }
