@@ -648,10 +648,14 @@ class Editor {
   }
 
   // Box i's "deformer" in the document (null when there is none).
-  json deformer_json(size_t i) const {
-    const json boxes = doc_->json().value("boxes", json::array());
-    if (!boxes.is_array() || i >= boxes.size() || !boxes[i].is_object()) return json();
-    return boxes[i].value("deformer", json());
+  const json& deformer_json(size_t i) const {
+    static const json none;
+    const json& doc = doc_->json();
+    const auto boxes = doc.find("boxes");
+    if (boxes == doc.end() || !boxes->is_array() || i >= boxes->size() || !(*boxes)[i].is_object())
+      return none;
+    const auto d = (*boxes)[i].find("deformer");
+    return d == (*boxes)[i].end() ? none : *d;
   }
 
   static std::optional<Eigen::Vector3d> point_of(const json& j) {
@@ -748,7 +752,7 @@ class Editor {
                           hot ? IM_COL32(255, 255, 255, 255) : axis_colour[a], ImDrawFlags_Closed,
                           hot ? 3.0f : 1.5f);
       }
-      const json d = deformer_json(i);
+      const json& d = deformer_json(i);
       if (d.is_object() && d.value("type", "") == "control_points" && d.contains("points")) {
         size_t k = 0;
         for (const json& pt : d["points"]) {
@@ -1350,7 +1354,7 @@ class Editor {
     status["open_path"] = open_path_;
     status["completions"] = completions_open_ ? completions_ : std::vector<std::string>();
     status["last_pick"] = last_pick_;
-    if (const json d = deformer_json(size_t(std::max(0, selected_)));
+    if (const json& d = deformer_json(size_t(std::max(0, selected_)));
         d.is_object() && d.contains("points") && d["points"].is_array())
       for (const json& pt : d["points"]) {
         const auto from = point_of(pt.value("from", json())), to = point_of(pt.value("to", json()));

@@ -199,6 +199,19 @@ std::string centre_of(const json& status, const std::string& widget, int dx = 0)
   return std::to_string(x + dx) + " " + std::to_string(y);
 }
 
+// A copy of examples/NAME in `dir` (scene.json), its mesh path made absolute and its camera file
+// inlined, so that the copy renders as the example does.
+fs::path copy_example(const std::string& name, const fs::path& dir) {
+  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
+  json scene = json::parse(std::ifstream(examples / name));
+  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
+  if (scene["camera"].is_string())
+    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
+  const fs::path file = dir / "scene.json";
+  std::ofstream(file) << scene.dump(2);
+  return file;
+}
+
 class Editor : public TempFolderTest {};
 
 // GLFW's key codes, as the status file's keys_held gives them.
@@ -209,14 +222,7 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
     ASSERT_TRUE(have(tool)) << tool
                             << " is not installed (scripts/setup.sh installs xvfb, "
                                "xdotool and imagemagick)";
-  // The example scene, its mesh path made absolute so that the copy finds it.
-  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
-  json scene = json::parse(std::ifstream(examples / "bunny_twist.json"));
-  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
-  if (scene["camera"].is_string())  // a camera file: inline it
-    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
-  const fs::path file = dir_ / "scene.json";
-  std::ofstream(file) << scene.dump(2);
+  const fs::path file = copy_example("bunny_twist.json", dir_);
 
   EditorSession editor(dir_);
   ASSERT_TRUE(editor.start(file)) << "cannot start Xvfb or the editor";
@@ -424,13 +430,7 @@ TEST_F(Editor, DragUndoRedoSaveUnderXvfb) {
 // against the deformer's exact forward map, and dragging moves its target; undo removes it.
 TEST_F(Editor, AControlPointIsPickedOnTheDeformedSurfaceAndDragged) {
   for (const char* tool : {"Xvfb", "xdotool", "import"}) ASSERT_TRUE(have(tool)) << tool;
-  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
-  json scene = json::parse(std::ifstream(examples / "bunny_control_points.json"));
-  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
-  if (scene["camera"].is_string())
-    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
-  const fs::path file = dir_ / "scene.json";
-  std::ofstream(file) << scene.dump(2);
+  const fs::path file = copy_example("bunny_control_points.json", dir_);
   const Scene before_scene = load_scene(file);
   const auto deformer = make_deformer(before_scene, 0);
   const Box& box = before_scene.boxes[0].box;
@@ -520,13 +520,7 @@ TEST_F(Editor, AControlPointIsPickedOnTheDeformedSurfaceAndDragged) {
 // shaders keep drawing, and the fixed file is taken.
 TEST_F(Editor, ShaderFolderReloadsAndShowsCompileErrorsWithFileAndLine) {
   for (const char* tool : {"Xvfb", "import"}) ASSERT_TRUE(have(tool)) << tool;
-  const fs::path examples = fs::path(RAYWARP_SOURCE_DIR) / "examples";
-  json scene = json::parse(std::ifstream(examples / "bunny_twist.json"));
-  scene["mesh"] = fs::absolute(examples / scene["mesh"].get<std::string>()).string();
-  if (scene["camera"].is_string())
-    scene["camera"] = json::parse(std::ifstream(examples / scene["camera"].get<std::string>()));
-  const fs::path file = dir_ / "scene.json";
-  std::ofstream(file) << scene.dump(2);
+  const fs::path file = copy_example("bunny_twist.json", dir_);
   const fs::path shaders = dir_ / "shaders";
   fs::copy(fs::path(RAYWARP_SOURCE_DIR) / "shaders", shaders);
   const fs::path shading = shaders / "shading.glsl";
