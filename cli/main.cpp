@@ -9,7 +9,10 @@
 #include <nlohmann/json.hpp>
 
 #include "base/error.h"
+#include "base/version.h"
 #include "cli/animate.h"
+#include "cli/export.h"
+#include "cli/library.h"
 #include "cli/pipeline.h"
 #include "cli/stability.h"
 #include "cli/study.h"
@@ -205,6 +208,39 @@ int run_study_cli(StudyCli opt) {
   return 0;
 }
 
+struct BakeCli {
+  std::string scene, out, formats = "ktx2", cache_dir;
+  int box = -1;
+  int atlas_border = 0;
+  bool float32 = false, dds_legacy = false, orientation = false, no_cache = false;
+};
+
+int run_bake(const BakeCli& opt) {
+  ExportOptions options;
+  options.formats = parse_formats(opt.formats, "--format");
+  options.storage = opt.float32 ? Storage::Float : Storage::Half;
+  options.atlas_border = opt.atlas_border;
+  options.dds_legacy = opt.dds_legacy;
+  if (opt.orientation) {
+    if (!opt.scene.empty())
+      throw Error(
+          "bake --orientation-test writes the orientation volume only; leave out the "
+          "scene file (" +
+          opt.scene + ")");
+    const nlohmann::json side = export_orientation(options, opt.out);
+    for (const auto& f : side["files"])
+      std::cerr << "wrote " << (fs::path(opt.out) / f["file"].get<std::string>()).string() << "\n";
+    std::cerr << "wrote " << (fs::path(opt.out) / "orientation.json").string() << "\n";
+    return 0;
+  }
+  if (opt.scene.empty()) throw Error("bake: give a scene file (or --orientation-test)");
+  auto cache = open_cache(opt.cache_dir, opt.no_cache);
+  BakeSession session(cache.get());
+  bake_and_export(opt.scene, options, opt.out, session, std::cerr, opt.box);
+  report_cache(cache.get());
+  return 0;
+}
+
 int run_info(const std::string& path) {
   Mesh mesh = load_mesh(path);
   std::cout << describe(mesh_stats(mesh)) << "\n";
@@ -220,7 +256,7 @@ int main(int argc, char** argv) {
       "inverse-displacement texture; the deformed part is ray cast in a fragment shader and\n"
       "composited with the rasterised rest of the mesh.",
       "raywarp"};
-  app.set_version_flag("--version", "raywarp 0.1.0");
+  app.set_version_flag("--version", std::string("raywarp ") + kVersion);
   app.require_subcommand(1);
 
   RenderOptions ropt;
@@ -272,6 +308,84 @@ int main(int argc, char** argv) {
       "out/bunny_twist.f32\n"
       "         raywarp render examples/bunny_twist.json -o out/anim/twist.png --frames 60 "
       "--param boxes[0].deformer.angle_deg=0:360");
+
+  BakeCli bopt;
+  auto* bake = app.add_subcommand(
+      "bake",
+      "Bake a scene's boxes and write their textures in the formats game engines and DCC tools "
+      "read (KTX2, DDS, OpenVDB, tiled atlases), each box with a JSON sidecar (docs/export.md)");
+  bake->add_option("scene", bopt.scene, "Scene file (JSON, see docs/scene.md)");
+  bake->add_option("-o,--out", bopt.out, "Output folder (created if missing)")->required();
+  bake->add_option("--format", bopt.formats,
+                   "Comma-separated: ktx2, dds, vdb, atlas-png, atlas-exr; or all")
+      ->capture_default_str();
+  bake->add_flag("--float", bopt.float32,
+                 "Store 32-bit floats instead of half floats (KTX2, DDS, EXR)");
+  bake->add_option("--atlas-border", bopt.atlas_border,
+                   "Texels of edge replication around each atlas tile: 0 for engines that slice "
+                   "the atlas into a 3D texture, 1 to sample the 2D atlas directly")
+      ->check(CLI::Range(0, 1))
+      ->capture_default_str();
+  bake->add_flag("--dds-legacy", bopt.dds_legacy,
+                 "DDS with a D3DFORMAT FourCC (113 for RGBA16F) instead of the DX10 header");
+  bake->add_option("--box", bopt.box, "Export only this box (0-based)")
+      ->check(CLI::NonNegativeNumber);
+  bake->add_flag("--orientation-test", bopt.orientation,
+                 "Write the orientation test volume (R = u, G = v, B = w, a marked corner) "
+                 "instead of a scene's textures");
+  bake->add_option("--cache-dir", bopt.cache_dir, "Bake cache folder (as for render)");
+  bake->add_flag("--no-cache", bopt.no_cache, "Read and store no bake cache entry");
+  bake->footer(
+      "Example: raywarp bake examples/bunny_twist.json --out out/export --format ktx2,dds,vdb\n"
+      "         raywarp bake --orientation-test --out out/orientation --format all");
+
+  LibraryOptions lopt;
+  std::string lib_formats = "ktx2", lib_input, lib_out = "out/library", lib_jobs, lib_cache;
+  bool lib_float = false;
+  auto* library = app.add_subcommand(
+      "library",
+      "Build a library of deformation textures from a folder of scene files (or a presets "
+      "file): each entry exported with its shaders and a thumbnail, an index, a contact sheet and "
+      "a browser viewer (docs/export.md)");
+  library->add_option("input", lib_input, "A folder of scene files, or a presets file (JSON)")
+      ->required();
+  library->add_option("-o,--out", lib_out, "Output folder")->capture_default_str();
+  library
+      ->add_option("--format", lib_formats,
+                   "Comma-separated: ktx2, dds, vdb, atlas-png, atlas-exr; or all (the viewer "
+                   "reads ktx2)")
+      ->capture_default_str();
+  library->add_flag("--float", lib_float, "Store 32-bit floats instead of half floats");
+  library
+      ->add_option("--atlas-border", lopt.export_options.atlas_border,
+                   "Texels of edge replication around each atlas tile (0 or 1)")
+      ->check(CLI::Range(0, 1))
+      ->capture_default_str();
+  library->add_flag("--dds-legacy", lopt.export_options.dds_legacy,
+                    "DDS with a D3DFORMAT FourCC instead of the DX10 header");
+  library->add_option("--thumbnail-size", lopt.thumbnail_size, "Thumbnail side, pixels")
+      ->check(CLI::Range(16, 1024))
+      ->capture_default_str();
+  library->add_option("--entry", lopt.entry,
+                      "Build only this entry (what an emitted job runs); the index is not "
+                      "written");
+  library->add_option("--emit-jobs", lib_jobs,
+                      "Write one command per entry to FILE (for GNU parallel or a Slurm array) "
+                      "instead of building");
+  library->add_flag("--index-only", lopt.index_only,
+                    "Merge the entries present in the output folder into the index, the contact "
+                    "sheet and the viewer");
+  library->add_flag("--force", lopt.force, "Rebuild entries whose input hash is unchanged");
+  library->add_option("--context", lopt.context, "OpenGL context: auto, egl or osmesa")
+      ->check(CLI::IsMember({"auto", "egl", "osmesa"}))
+      ->capture_default_str();
+  library->add_option("--cache-dir", lib_cache, "Bake cache folder (as for render)");
+  library->add_flag("--no-cache", lopt.no_cache, "Read and store no bake cache entry");
+  library->footer(
+      "Example: raywarp library examples/library --out out/library\n"
+      "         raywarp library examples/library --out out/library --emit-jobs jobs.txt\n"
+      "         parallel < jobs.txt && raywarp library examples/library --out out/library "
+      "--index-only");
 
   std::string cache_dir;
   bool cache_clear = false;
@@ -372,6 +486,16 @@ int main(int argc, char** argv) {
     if (*render) return run_render(ropt);
     if (*edit) return editor::run_editor(eopt);
     if (*info) return run_info(info_path);
+    if (*bake) return run_bake(bopt);
+    if (*library) {
+      lopt.input = lib_input;
+      lopt.out = lib_out;
+      lopt.emit_jobs = lib_jobs;
+      lopt.cache_dir = lib_cache;
+      lopt.export_options.formats = parse_formats(lib_formats, "--format");
+      lopt.export_options.storage = lib_float ? Storage::Float : Storage::Half;
+      return run_library(lopt, std::cerr);
+    }
     if (*deformers_cmd) {
       if (deformers_markdown) {
         std::cout << deformer_table();

@@ -116,6 +116,27 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << "]\n";
 }
 
+BakedBox bake_logged(BakeSession& session, const BakeJob& job, std::ostream& log,
+                     const std::string& tag) {
+  // Progress on the log every quarter of each stage, once a bake has run for a second.
+  int last_quarter = -1;
+  std::string last_stage;
+  const auto start = std::chrono::steady_clock::now();
+  Interrupter progress([&](const std::string& stage, double fraction) {
+    const int quarter = static_cast<int>(fraction * 4.0);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if ((stage != last_stage || quarter != last_quarter) && seconds > 1.0) {
+      log << tag << stage << " " << 25 * quarter << " %\n" << std::flush;
+      last_stage = stage;
+      last_quarter = quarter;
+    }
+  });
+  BakedBox box = session.bake(job, &progress);
+  print_report(log, tag, box, session);
+  return box;
+}
+
 PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeSession& session,
                             bool centre_on_lower_faces) {
   PreparedScene out;
@@ -123,26 +144,9 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeSession& 
   log << "mesh: " << describe(out.stats()) << " (" << fmt("%.2f", out.handle->load_seconds)
       << " s)\n";
   const long before = session.counters().baked();
-  for (size_t i = 0; i < scene.boxes.size(); ++i) {
-    const std::string tag = "box " + std::to_string(i) + ": ";
-    // Progress on the log every quarter of each stage, once a bake has run for a second.
-    int last_quarter = -1;
-    std::string last_stage;
-    const auto start = std::chrono::steady_clock::now();
-    Interrupter progress([&](const std::string& stage, double fraction) {
-      const int quarter = static_cast<int>(fraction * 4.0);
-      const double seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if ((stage != last_stage || quarter != last_quarter) && seconds > 1.0) {
-        log << tag << stage << " " << 25 * quarter << " %\n" << std::flush;
-        last_stage = stage;
-        last_quarter = quarter;
-      }
-    });
-    out.boxes.push_back(
-        session.bake(make_job(scene, i, out.handle, centre_on_lower_faces), &progress));
-    print_report(log, tag, out.boxes.back(), session);
-  }
+  for (size_t i = 0; i < scene.boxes.size(); ++i)
+    out.boxes.push_back(bake_logged(session, make_job(scene, i, out.handle, centre_on_lower_faces),
+                                    log, "box " + std::to_string(i) + ": "));
   out.bakes = static_cast<int>(session.counters().baked() - before);
   return out;
 }

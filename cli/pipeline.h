@@ -19,6 +19,11 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeSession& 
 PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeCache* cache = nullptr,
                             bool centre_on_lower_faces = false);
 
+// Bakes one job in `session` with progress on `log` (each quarter of a stage, once the bake has
+// run for a second), then prints its report, each line prefixed by `tag`.
+BakedBox bake_logged(BakeSession& session, const BakeJob& job, std::ostream& log,
+                     const std::string& tag);
+
 // One box's report as the log lines `raywarp render` prints, each prefixed by `tag`.
 void print_report(std::ostream& log, const std::string& tag, const BakedBox& box,
                   const BakeSession& session);

@@ -1,5 +1,6 @@
 #include "library/image.h"
 
+#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #include <algorithm>
@@ -106,6 +107,20 @@ ImageComparison compare_images(const Image& a, const Image& b, double depth_thre
     c.fraction_over = static_cast<double>(over) / c.common;
   }
   return c;
+}
+
+Image read_png(const std::string& path) {
+  int w = 0, h = 0, n = 0;
+  unsigned char* pixels = stbi_load(path.c_str(), &w, &h, &n, 4);
+  if (!pixels)
+    throw Error(path +
+                ": cannot read as a PNG: " + (stbi_failure_reason() ? stbi_failure_reason() : "?"));
+  Image image;
+  image.width = w;
+  image.height = h;
+  image.rgba.assign(pixels, pixels + static_cast<size_t>(w) * h * 4);
+  stbi_image_free(pixels);
+  return image;
 }
 
 }  // namespace raywarp

@@ -24,6 +24,8 @@ void write_png(const std::string& path, const Image& image);
 void write_mask_png(const std::string& path, const Image& image);   // 255 where covered
 void write_depth_f32(const std::string& path, const Image& image);  // float32 LE, H x W, row-major
 // write_file_atomic (base/atomic_file.h) writes any other file whole.
+// Reads an 8-bit PNG (any channel count, as RGBA; depth left empty). Throws Error naming the path.
+Image read_png(const std::string& path);
 
 // The sRGB transfer function (IEC 61966-2-1) of a linear value clamped to [0, 1]: 12.92 c below
 // 0.0031308, else 1.055 c^(1/2.4) - 0.055. shaders/shading.glsl's srgb_encode is the same.

@@ -1,0 +1,30 @@
+// `raywarp bake`: a scene's boxes baked and written in the formats engines and DCC tools read
+// (library/export.h), each with its JSON sidecar; and the orientation test volume.
+#pragma once
+#include <filesystem>
+#include <iosfwd>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "library/bake.h"
+#include "library/export.h"
+
+namespace raywarp {
+
+// The job that bakes box `index` of `scene` for export: 32-bit textures (the formats quantise
+// them themselves), the step bounds baked where a box can use them, and a distance grid where the
+// scene asks for a depth cube (exports carry the grid, so a consumer can ray cast).
+BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh);
+
+// Bakes every box of the scene file `scene` (or only box `only`, when >= 0) in `session` and
+// exports each into `out` as SCENESTEM_boxI.*; logs progress and each box's report. Returns the
+// sidecars.
+std::vector<nlohmann::json> bake_and_export(const std::filesystem::path& scene,
+                                            const ExportOptions& options,
+                                            const std::filesystem::path& out, BakeSession& session,
+                                            std::ostream& log, int only = -1);
+
+// The file name stem of a scene's box: "bunny_twist_box0".
+std::string export_stem(const std::filesystem::path& scene, size_t index);
+
+}  // namespace raywarp
