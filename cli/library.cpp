@@ -425,20 +425,20 @@ int run_library(const LibraryOptions& o, std::ostream& log) {
   for (const auto& s : sources) {
     if (!o.entry.empty() && s.name != o.entry) continue;
     const auto start = std::chrono::steady_clock::now();
-    const Scene scene = load_scene_json(s.document, s.path);
-    const std::string hash = entry_hash(s, scene, o);
-    const nlohmann::json present = read_entry(o.out, s.name);
-    if (!o.force && !present.is_null() && present.value("input_hash", "") == hash) {
-      ++skipped;
-      progress_bar(log, ++done, total, s.name + ": unchanged, skipped");
-      continue;
-    }
-    if (!context) {
-      context = gl::create_context(o.context);
-      log << "library: context " << context->description() << "\n";
-    }
     std::stringstream report;
     try {
+      const Scene scene = load_scene_json(s.document, s.path);
+      const std::string hash = entry_hash(s, scene, o);
+      const nlohmann::json present = read_entry(o.out, s.name);
+      if (!o.force && !present.is_null() && present.value("input_hash", "") == hash) {
+        ++skipped;
+        progress_bar(log, ++done, total, s.name + ": unchanged, skipped");
+        continue;
+      }
+      if (!context) {
+        context = gl::create_context(o.context);
+        log << "library: context " << context->description() << "\n";
+      }
       const nlohmann::json r = build_entry(s, o, session, hash, report);
       ++built;
       const long w = r["warnings"].get<long>();

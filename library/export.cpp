@@ -146,6 +146,23 @@ nlohmann::json texture_entry(const ExportedTexture& t) {
   return e;
 }
 
+// M in box units, S^-1 M S with S = diag(h, 1), entry by entry so that the identity stays exact:
+// m_rc h_c / h_r (the translation column: m_r3 / h_r). And back.
+Eigen::Matrix4d map_to_box_units(const Eigen::Matrix4d& m, const Eigen::Vector3d& h) {
+  const Eigen::Vector4d s(h.x(), h.y(), h.z(), 1.0);
+  Eigen::Matrix4d out;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out(r, c) = m(r, c) * s[c] / s[r];
+  return out;
+}
+Eigen::Matrix4d map_from_box_units(const Eigen::Matrix4d& m, const Eigen::Vector3d& h) {
+  const Eigen::Vector4d s(h.x(), h.y(), h.z(), 1.0);
+  Eigen::Matrix4d out;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out(r, c) = m(r, c) * s[r] / s[c];
+  return out;
+}
+
 std::string file_name(const std::string& stem, const std::string& texture, ExportFormat f) {
   return stem + "." + texture + format_extension(f);
 }
@@ -321,10 +338,7 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   side["description"] = report.deformer;
   side["parameters"] = report.parameters;
   side["encoding"] = kEncoding;
-  // M in box units: S^-1 M S with S = diag(h).
-  Eigen::Matrix4d s = Eigen::Matrix4d::Identity();
-  s.topLeftCorner<3, 3>() = h.asDiagonal();
-  side["texture_map"] = matrix(s.inverse() * tex.texture_map * s);
+  side["texture_map"] = matrix(map_to_box_units(tex.texture_map, h));
   side["texture_map_meaning"] =
       "M of Correa & Silver eq. 2, box units, row-major, column vectors: D is read at M p'";
   side["reuse"] = kReuse;
@@ -551,9 +565,7 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
     Eigen::Matrix4d m;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) m(r, c) = side.at("texture_map").at(r).at(c).get<double>();
-    Eigen::Matrix4d s = Eigen::Matrix4d::Identity();
-    s.topLeftCorner<3, 3>() = h.asDiagonal();
-    tex.texture_map = s * m * s.inverse();
+    tex.texture_map = map_from_box_units(m, h);
     const nlohmann::json& rr = render.at("ray_cast_region");
     tex.region =
         Eigen::AlignedBox3d(v3(rr.at("min")).cwiseProduct(h), v3(rr.at("max")).cwiseProduct(h));

@@ -9,8 +9,10 @@ shift || true
 # The editor's test drives a window on a virtual X server: Xvfb, xdotool, ImageMagick's import.
 # The export tests read the files back with readers that are not raywarp's: ImageMagick (16-bit
 # PNG), nvddsinfo (DDS), vdb_print and pyopenvdb (OpenVDB), the npm package ktx-parse under
-# Node.js (KTX2), and GNU parallel runs a library's jobs.
-extra="xvfb xdotool imagemagick libnvtt-bin libopenvdb-tools python3-openvdb parallel"
+# Node.js (KTX2), and GNU parallel runs a library's jobs; the library's browser viewer is checked in
+# Debian's headless Chromium, and the exported shaders by glslangValidator.
+extra="xvfb xdotool imagemagick libnvtt-bin libopenvdb-tools python3-openvdb parallel chromium"
+extra="$extra glslang-tools"
 # A machine that has Node.js from elsewhere keeps it (Debian's npm conflicts with such a node).
 command -v node >/dev/null 2>&1 || extra="$extra nodejs"
 command -v npm >/dev/null 2>&1 || extra="$extra npm"

@@ -123,6 +123,7 @@ TEST_P(ExportTest, ReimportedTexturesRenderTheSameImage) {
     }
     EXPECT_EQ(back.box.centre, orig.box.centre);
     EXPECT_EQ(back.box.half_extents, orig.box.half_extents);
+    EXPECT_EQ(back.texture_map, orig.texture_map);  // exactly: the identity stays the identity
     EXPECT_EQ(back.has_cut, orig.has_cut);
     EXPECT_EQ(back.moves_nothing, orig.moves_nothing);
     EXPECT_LT((back.region.min() - orig.region.min()).norm(), 1e-9);
