@@ -4,7 +4,9 @@
 
 #include "base/error.h"
 #include "base/format.h"
+#include "cli/engine_bundles.h"
 #include "cli/pipeline.h"
+#include "cli/viewer_assets.h"
 
 namespace raywarp {
 
@@ -34,6 +36,7 @@ std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
   MeshPtr mesh = session.mesh(scene.mesh);
   log << "mesh: " << describe(mesh->stats) << "\n";
   std::vector<nlohmann::json> sidecars;
+  std::vector<BoxTextures> exported;  // for the shaders: each box as a consumer loads it
   for (size_t i = 0; i < scene.boxes.size(); ++i) {
     if (only >= 0 && static_cast<int>(i) != only) continue;
     const std::string tag = "box " + std::to_string(i) + ": ";
@@ -52,6 +55,21 @@ std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
           << fmt("%.3g", f["max_error"].get<double>()) << ")\n";
     log << tag << "wrote " << (out / (stem + ".json")).string() << "\n";
     sidecars.push_back(std::move(side));
+    exported.push_back(baked.textures);
+  }
+  // The scene's ray-cast variants as standalone GLSL, for engines; with --box, that box's alone.
+  const nlohmann::json shaders =
+      write_shader_bundle(exported, scene.render, out, scene_file.stem().string());
+  log << "shaders: wrote " << (out / shaders["uniforms"].get<std::string>()).string()
+      << " and the GLSL 4.50 and ES 3.00 files it documents\n";
+  // What each engine needs to import the box (after the shaders: three.js's module reads them).
+  for (size_t n = 0; n < sidecars.size(); ++n) {
+    const size_t i = only >= 0 ? size_t(only) : n;
+    const std::string stem = export_stem(scene_file, i);
+    const nlohmann::json engines = write_engine_bundles(sidecars[n], out, stem);
+    log << "box " << i << ": engine bundles in "
+        << (out / engines["folder"].get<std::string>()).string()
+        << " (three.js, Unity, Unreal, Godot; each with CHECKLIST.md)\n";
   }
   return sidecars;
 }

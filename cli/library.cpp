@@ -14,6 +14,7 @@
 #include "base/error.h"
 #include "base/format.h"
 #include "base/version.h"
+#include "cli/engine_bundles.h"
 #include "cli/export.h"
 #include "cli/pipeline.h"
 #include "cli/viewer_assets.h"
@@ -217,6 +218,10 @@ nlohmann::json build_entry(const EntrySource& e, const LibraryOptions& o, BakeSe
                                : baked.textures);
     }
     const nlohmann::json shaders = write_shader_bundle(shown, scene.render, tmp, e.name);
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      const std::string stem = e.name + "_box" + std::to_string(i);
+      write_engine_bundles(read_json(tmp / (stem + ".json")), tmp, stem);
+    }
     const Eigen::Vector2i full = image_size(scene, *scene.camera, 0, 0);
     const Eigen::Vector2i thumb = thumbnail_size(full, o.thumbnail_size);
     write_png((tmp / "thumbnail.png").string(),

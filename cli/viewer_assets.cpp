@@ -192,32 +192,6 @@ void uniform_table(std::ostream& md, const std::string& source) {
   md << "\n";
 }
 
-// An exported texture map M goes through S^-1 M S (box units) and back, which leaves an identity
-// off by an ulp (1.0000000000000002): the renderer would then pick the texture-map variant, and
-// refuse bounded tracing, for what is the identity. Within 1e-9 of it, M is the identity.
-BoxTextures without_rounding_in_texture_map(const BoxTextures& b) {
-  BoxTextures out;
-  out.box = b.box;
-  out.sdf.grid.origin = b.sdf.grid.origin;
-  out.sdf.grid.spacing = b.sdf.grid.spacing;
-  out.sdf.grid.dims = b.sdf.grid.dims;
-  out.sdf.background = b.sdf.background;
-  out.uses_depth_cube = b.uses_depth_cube;
-  out.region = b.region;
-  out.moves_nothing = b.moves_nothing;
-  out.lipschitz = b.lipschitz;
-  out.has_cut = b.has_cut;
-  out.cut_mode = b.cut_mode;
-  out.shell_thickness = b.shell_thickness;
-  out.step_bounds = b.step_bounds;
-  out.texture_map = b.texture_map;
-  out.half_precision = b.half_precision;
-  out.depth_cube.spacing = b.depth_cube.spacing;
-  if ((out.texture_map - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff() <= 1e-9)
-    out.texture_map = Eigen::Matrix4d::Identity();
-  return out;
-}
-
 void write_text(const fs::path& path, const std::string& text) {
   write_file_atomic(path.string(), std::string_view(text));
 }
@@ -333,7 +307,7 @@ nlohmann::json write_shader_bundle(const std::vector<BoxTextures>& boxes,
 
   out["boxes"] = nlohmann::json::array();
   for (size_t i = 0; i < boxes.size(); ++i) {
-    const BoxTextures box = without_rounding_in_texture_map(boxes[i]);
+    const BoxTextures& box = boxes[i];
     const gl::Variant variant = gl::raycast_variant(box, settings);
     const std::string frag = gl::raycast_fragment_source(box, settings);
     nlohmann::json b450 = {{"vertex", v450["vertex"]}}, bes = {{"vertex", ves["vertex"]}};

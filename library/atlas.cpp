@@ -217,9 +217,16 @@ AtlasLayout atlas_layout(const Eigen::Vector3i& dims, int border, int tiles_x) {
   layout.border = border;
   const int nz = dims.z();
   if (tiles_x == 0) {
-    tiles_x = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(nz))));
-    while (tiles_x > 1 && (tiles_x - 1) * (tiles_x - 1) >= nz) --tiles_x;  // exact for squares
-    while (tiles_x * tiles_x < nz) ++tiles_x;
+    // Engines cut tiles_x * tiles_y slices out of the atlas (Godot, Unreal), so a grid with no
+    // empty tile is best: the divisor of nz nearest sqrt(nz) within a factor of 2 of it (96
+    // slices: 8 x 12). Otherwise (a prime nz) ceil(sqrt(nz)) columns and a last row part empty.
+    const double root = std::sqrt(static_cast<double>(nz));
+    int best = 0;
+    for (int d = 1; d <= nz; ++d)
+      if (nz % d == 0 && d >= root / 2 && d <= 2 * root &&
+          (best == 0 || std::abs(d - root) < std::abs(best - root)))
+        best = d;
+    tiles_x = best > 0 ? best : static_cast<int>(std::ceil(root));
   }
   layout.tiles_x = tiles_x;
   layout.tiles_y = (nz + tiles_x - 1) / tiles_x;

@@ -39,8 +39,10 @@ struct AtlasLayout {
   }
 };
 
-// tiles_x = 0 picks ceil(sqrt(nz)); tiles_y = ceil(nz / tiles_x). Throws Error for dims < 1, a
-// border other than 0 or 1, or tiles_x < 0. (The size limit is checked by the writers.)
+// tiles_x = 0 picks the divisor of nz nearest sqrt(nz) within a factor of 2 of it, so that
+// tiles_x * tiles_y = nz (no empty tile), else ceil(sqrt(nz)); tiles_y = ceil(nz / tiles_x). Throws
+// Error for dims < 1, a border other than 0 or 1, or tiles_x < 0. (The size limit is checked by the
+// writers.)
 AtlasLayout atlas_layout(const Eigen::Vector3i& dims, int border = 0, int tiles_x = 0);
 
 // The atlas as floats, channels interleaved, rows from the top: width * height * channels.

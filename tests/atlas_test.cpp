@@ -113,12 +113,18 @@ TEST(AtlasLayout, TilesFollowTheEnginesOrder) {
   EXPECT_EQ(column.height(), 20);
   EXPECT_EQ(column.texel(1, 2, 3), Eigen::Vector2i(1, 14));
   EXPECT_EQ(atlas_layout({8, 8, 64}).tiles_x, 8);
-  EXPECT_EQ(atlas_layout({8, 8, 65}).tiles_x, 9);
+  // No empty tile where nz has a divisor near sqrt(nz): 65 = 5 x 13, 96 = 8 x 12; a prime nz
+  // takes ceil(sqrt(nz)) columns.
+  EXPECT_EQ(atlas_layout({8, 8, 65}).tiles_x, 5);
+  EXPECT_EQ(atlas_layout({8, 8, 65}).tiles_y, 13);
+  EXPECT_EQ(atlas_layout({8, 8, 96}).tiles_x, 8);
+  EXPECT_EQ(atlas_layout({8, 8, 96}).tiles_y, 12);
+  EXPECT_EQ(atlas_layout({8, 8, 97}).tiles_x, 10);
 }
 
 TEST(AtlasLayout, BorderRepeatsTheEdgeTexelsAndUnusedTilesAreZero) {
   const TextureVolume v = recognisable(2);
-  const AtlasLayout l = atlas_layout(v.dims, 1);  // 2 x 2 tiles of 7 x 6, the last unused
+  const AtlasLayout l = atlas_layout(v.dims, 1, 2);  // 2 x 2 tiles of 7 x 6, the last unused
   const std::vector<float> p = atlas_pixels(v, l);
   ASSERT_EQ(p.size(), static_cast<size_t>(14 * 12 * 2));
   auto pixel = [&](Eigen::Vector2i q, int c) { return p[(q.y() * l.width() + q.x()) * 2 + c]; };
@@ -139,7 +145,7 @@ TEST(AtlasLayout, BorderRepeatsTheEdgeTexelsAndUnusedTilesAreZero) {
   for (int y = 6; y < 12; ++y)
     for (int x = 7; x < 14; ++x) EXPECT_EQ(pixel({x, y}, 0), 0.0f);
   // Without a border, the atlas is the slices side by side.
-  const AtlasLayout plain = atlas_layout(v.dims);
+  const AtlasLayout plain = atlas_layout(v.dims, 0, 2);
   const std::vector<float> q = atlas_pixels(v, plain);
   EXPECT_EQ(q[(4 * plain.width() + 0) * 2 + 1], v.at(0, 0, 2, 1));  // slice 2: row 1, column 0
   EXPECT_EQ(q[(3 * plain.width() + 9) * 2 + 0], v.at(4, 3, 1, 0));  // slice 1: last texel

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <chrono>
@@ -90,58 +91,37 @@ void write_generated_scenes(const fs::path& out) {
   write_file_atomic((out / "scenes" / "bend_bounded_ortho.json").string(), scene.dump(2));
 }
 
-// The library folder as `raywarp library` will write it (index.json, entries/NAME/, meshes/,
-// viewer/); to be replaced by a call of that command.
+// The library of the scene cases, built by `raywarp library` (KTX2) from copies of the scenes named
+// after their entries (mesh and camera paths made absolute), in a folder of this process's own:
+// ctest runs the tests of this file in parallel processes. Bakes come from the tests' cache.
 nlohmann::json build_library(const fs::path& out) {
   fs::remove_all(out);
-  fs::create_directories(out / "meshes");
   write_generated_scenes(out);
-  BakeSession session;
-  std::ostringstream log;
-  nlohmann::json entries = nlohmann::json::array();
+  const fs::path scenes = out / "library_scenes";
+  fs::create_directories(scenes);
   for (const SceneCase& c : scene_cases(out)) {
-    const fs::path scene_file = c.file;
-    const Scene scene = load_scene(scene_file);
-    const fs::path folder = out / "entries" / c.name;
-    ExportOptions options;
-    options.formats = {ExportFormat::Ktx2};
-    bake_and_export(scene_file, options, folder, session, log);
-    MeshPtr mesh = session.mesh(scene.mesh);
-    const std::string mesh_name = "meshes/" + mesh->hash + ".bin";
-    write_mesh_bin(mesh->mesh, out / mesh_name);
-    std::vector<BoxTextures> boxes;
-    nlohmann::json sidecars = nlohmann::json::array();
-    for (size_t i = 0; i < scene.boxes.size(); ++i) {
-      const std::string sidecar = export_stem(scene_file, i) + ".json";
-      boxes.push_back(import_box(folder / sidecar, ExportFormat::Ktx2));
-      sidecars.push_back("entries/" + c.name + "/" + sidecar);
-    }
-    const Camera camera = *scene.camera;
-    const Eigen::Vector2i size = image_size(scene, camera, 0, 0);
-    entries.push_back({{"name", c.name},
-                       {"folder", "entries/" + c.name},
-                       {"mesh", mesh_name},
-                       {"camera", camera_to_json(camera)},
-                       {"width", size.x()},
-                       {"height", size.y()},
-                       {"render", render_settings_to_json(scene.render)},
-                       {"boxes", sidecars},
-                       {"shaders", write_shader_bundle(boxes, scene.render, folder, c.name)},
-                       {"thumbnail", "entries/" + c.name + "/thumbnail.png"}});
+    std::ifstream in(c.file);
+    nlohmann::json scene = nlohmann::json::parse(in);
+    const fs::path base = c.file.parent_path();
+    scene["mesh"] = (base / scene["mesh"].get<std::string>()).lexically_normal().string();
+    if (scene["camera"].is_string())
+      scene["camera"] = (base / scene["camera"].get<std::string>()).lexically_normal().string();
+    write_file_atomic((scenes / (c.name + ".json")).string(), scene.dump(2));
   }
-  const nlohmann::json index = {
-      {"schema", "raywarp.library"}, {"version", 1}, {"raywarp", "0.1.0"}, {"entries", entries}};
-  write_file_atomic((out / "index.json").string(), index.dump(2) + "\n");
-  write_viewer(out / "viewer");
-  return index;
+  const CommandResult r = shell(std::string(RAYWARP_BINARY) + " library " + scenes.string() +
+                                " --out " + out.string() + " --format ktx2");
+  if (r.code != 0) throw Error("raywarp library failed:\n" + r.output);
+  std::ifstream in(out / "index.json");
+  return nlohmann::json::parse(in);
 }
 
 class ViewerTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::path(RAYWARP_BUILD_DIR) / "viewer_test_library";
+    dir_ = fs::path(RAYWARP_BUILD_DIR) / ("viewer_test_library_" + std::to_string(::getpid()));
     index_ = build_library(dir_);
   }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
   static fs::path dir_;
   static nlohmann::json index_;
 };

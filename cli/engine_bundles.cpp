@@ -1,0 +1,1179 @@
+#include "cli/engine_bundles.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <regex>
+#include <sstream>
+#include <vector>
+
+#include "base/atomic_file.h"
+#include "base/error.h"
+#include "cli/viewer_assets.h"
+#include "library/scene.h"
+
+namespace raywarp {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// The textures a box may export, with the sampler of the ray-cast shader each one feeds.
+struct TextureRole {
+  const char* name;
+  const char* sampler;
+  bool nearest;  // the step bounds are read NEAREST
+};
+constexpr TextureRole kRoles[] = {{"deformation", "u_deformation", false},
+                                  {"distance", "u_sdf", false},
+                                  {"alpha", "u_alpha", false},
+                                  {"step_bounds_d", "u_bricks", true},
+                                  {"step_bounds_sdf", "u_sdf_bricks", true}};
+
+bool is_nearest(const std::string& name) {
+  for (const TextureRole& r : kRoles)
+    if (name == r.name) return r.nearest;
+  return false;
+}
+
+// A number as JSON writes it: the shortest text that reads back to the same double.
+std::string num(double x) { return json(x).dump(); }
+std::string num(const json& x) { return x.dump(); }
+
+// One exported texture as the sidecar describes it.
+struct Tex {
+  std::string name;
+  json info;  // sidecar textures[name]
+  std::vector<int> dims() const { return info.at("dims").get<std::vector<int>>(); }
+  std::vector<double> scale() const { return info.at("scale").get<std::vector<double>>(); }
+  size_t channels() const { return info.at("scale").size(); }
+};
+
+std::vector<Tex> textures_of(const json& side) {
+  std::vector<Tex> out;
+  const json& t = side.at("textures");
+  for (const TextureRole& r : kRoles)
+    if (t.contains(r.name)) out.push_back({r.name, t.at(r.name)});
+  for (auto it = t.begin(); it != t.end(); ++it)  // any other texture, in the sidecar's order
+    if (std::none_of(out.begin(), out.end(), [&](const Tex& x) { return x.name == it.key(); }))
+      out.push_back({it.key(), it.value()});
+  return out;
+}
+
+const json* file_of(const json& side, const std::string& texture, const std::string& format) {
+  for (const json& f : side.at("files"))
+    if (f.value("texture", "") == texture && f.value("format", "") == format) return &f;
+  return nullptr;
+}
+
+bool has_format(const json& side, const std::string& format) {
+  for (const json& f : side.at("files"))
+    if (f.value("format", "") == format) return true;
+  return false;
+}
+
+// The atlas of `texture`: EXR when written, else the 16-bit PNG, else null.
+const json* atlas_of(const json& side, const std::string& texture) {
+  if (const json* f = file_of(side, texture, "atlas-exr")) return f;
+  return file_of(side, texture, "atlas-png");
+}
+
+std::string csv(const std::vector<int>& v, const char* sep = " x ") {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? sep : "") + std::to_string(v[i]);
+  return s;
+}
+
+std::string quoted_channels(const Tex& t) {
+  std::string s;
+  const json ch = t.info.value("channels", json::array());
+  for (size_t i = 0; i < ch.size(); ++i) {
+    static const char* rgba[] = {"R", "G", "B", "A"};
+    s += std::string(i ? ", " : "") + (i < 4 ? rgba[i] : "?") + " = `" + ch[i].get<std::string>() +
+         "` (scale " + num(t.info.at("scale")[i]) + ")";
+  }
+  return s;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  write_file_atomic(path.string(), std::string_view(text));
+}
+
+// Escapes a string for a JavaScript, Python or C# double-quoted literal (ASCII names only).
+std::string lit(const std::string& s) { return json(s).dump(); }
+
+// ---- the parts every checklist shares ----------------------------------------------------------
+
+std::string common_checklist(const json& side, const std::string& stem,
+                             const std::vector<Tex>& texs) {
+  std::ostringstream md;
+  const json& box = side.at("box");
+  md << "## The box\n\n"
+     << "- Source: " << side.value("description", std::string("?")) << " (`" << stem
+     << ".json`, schema `raywarp.export` version " << side.value("version", 0) << ").\n"
+     << "- Box centre " << num(box.at("centre"))
+     << ", half extents h = " << num(box.at("half_extents"))
+     << " (object units), rotation (columns: the box axes) " << num(box.at("rotation")) << ".\n"
+     << "- Box units: a box-frame point q (object units) is q / h, so the box is [-1, 1]^3. "
+        "Each texture covers `region.min .. region.max` (box units); texel (i, j, k) has its "
+        "centre at texture coordinate ((i, j, k) + 0.5) / dims. Memory order: channels, then x "
+        "fastest, then y, then z.\n\n"
+     << "## Textures\n\n"
+     << "| texture | dims (x y z) | region min (box units) | region max | channels (object = "
+        "stored * scale) | read |\n| --- | --- | --- | --- | --- | --- |\n";
+  for (const Tex& t : texs)
+    md << "| `" << t.name << "` | " << csv(t.dims()) << " | " << num(t.info.at("region").at("min"))
+       << " | " << num(t.info.at("region").at("max")) << " | " << quoted_channels(t) << " | "
+       << (is_nearest(t.name) ? "NEAREST" : "LINEAR") << " |\n";
+  md << "\nMeanings:\n\n";
+  for (const Tex& t : texs)
+    md << "- `" << t.name << "` (" << t.info.value("frame", std::string("?"))
+       << " frame): " << t.info.value("meaning", std::string()) << "\n";
+  md << "\n## Files in the export folder\n\n"
+     << "| file | format | texture | storage | size / tiles | decode |\n"
+     << "| --- | --- | --- | --- | --- | --- |\n";
+  for (const json& f : side.at("files")) {
+    md << "| `" << f.value("file", "") << "` | " << f.value("format", "") << " | "
+       << f.value("texture", "") << " | " << f.value("storage", "") << " | ";
+    if (f.contains("tiles"))
+      md << num(f.at("size")) << " px, tiles " << num(f.at("tiles")) << ", border "
+         << f.value("border", 0);
+    md << " | ";
+    if (f.contains("lo"))
+      md << "stored = lo + code / 65535 * (hi - lo), lo = " << num(f.at("lo"))
+         << ", hi = " << num(f.at("hi")) << "; then object = stored * scale";
+    else if (f.value("format", "") == "vdb")
+      md << f.value("grids", "");
+    else
+      md << "object = stored * scale";
+    md << " |\n";
+  }
+  md << "\n## Settings every engine needs\n\n"
+     << "- **Linear data, sRGB off.** The values are displacements and distances, not colours: an "
+        "sRGB decode bends them.\n"
+     << "- **Filtering linear (trilinear within level 0)**, the step bounds nearest.\n"
+     << "- **Clamp to edge** on all three axes: repeating wraps the opposite face's displacement "
+        "into the box.\n"
+     << "- **No mipmaps.** A mip level averages the displacements of neighbouring texels, which "
+        "is not the displacement of any point (and it averages validity and distances across the "
+        "surface); sample level 0 only.\n"
+     << "- **No resize, no compression** (no power-of-two rounding, no block compression, no "
+        "texture streaming that drops levels): each texel is a sample at a known position, and "
+        "block compression errors are displacement errors.\n"
+     << "- **Decode**: object = stored * scale[channel] (scale above: the deformation's xyz "
+        "scale is h, so D comes out in object units; its A is validity, scale 1, count it valid "
+        "at >= 0.5). The 16-bit PNG first decodes its codes with lo/hi.\n\n";
+  return md.str();
+}
+
+// What the engine should show for the orientation volume. `w_note` says how the engine's w
+// relates to raywarp's (atlas routes add empty slices), `v_note` the vertical convention.
+std::string orientation_section(const std::string& how, const std::string& v_note,
+                                const std::string& w_note) {
+  std::ostringstream md;
+  md << "## Verify with the orientation test volume\n\n"
+     << "`raywarp bake --orientation-test --out DIR --format all` writes `orientation.*` and "
+        "`orientation.json`: 16 x 12 x 8 texels with R = u, G = v, B = w (the texture "
+        "coordinate of each texel centre, (i + 0.5) / 16, (j + 0.5) / 12, (k + 0.5) / 8) and "
+        "A = 1 except A = 0 in the 2 x 2 x 2 texels at texel (0, 0, 0). Import it "
+     << how << ", then sample it:\n\n"
+     << "| sample at (u, v, w) | expect RGBA |\n| --- | --- |\n"
+     << "| (0.03125, 0.041667, 0.0625) (texel 0, 0, 0) | (0.03125, 0.041667, 0.0625, 0) |\n"
+     << "| (0.96875, 0.041667, 0.0625) (texel 15, 0, 0) | (0.96875, 0.041667, 0.0625, 1) |\n"
+     << "| (0.03125, 0.958333, 0.0625) (texel 0, 11, 0) | (0.03125, 0.958333, 0.0625, 1) |\n"
+     << "| (0.03125, 0.041667, 0.9375) (texel 0, 0, 7) | (0.03125, 0.041667, 0.9375, 1) |\n"
+     << "| (0.5, 0.5, 0.5) | (0.5, 0.5, 0.5, 1) |\n\n"
+     << "R should grow along the engine's u, G along v, B along w. A swapped or flipped axis "
+        "shows at once (G = 1 - v: a vertical flip; B out of order: slices mis-cut); a dark "
+        "corner (A = 0) anywhere but at (0, 0, 0) names the flipped axes. "
+     << v_note << " " << w_note << "\n";
+  return md.str();
+}
+
+std::string missing_section(const std::vector<std::string>& missing, const std::string& why) {
+  if (missing.empty()) return "";
+  std::ostringstream md;
+  md << "## Missing formats\n\n" << why << " Re-export with";
+  for (const std::string& m : missing) md << " `" << m << "`";
+  md << " (e.g. `raywarp bake SCENE --out DIR --format all`).\n\n";
+  return md.str();
+}
+
+// The engines that cut a volume from an atlas make tiles_x * tiles_y slices, the last ones
+// empty when nz is not a multiple: the texture coordinate w must be remapped.
+std::string atlas_w_note(const std::vector<Tex>& texs, const json& side,
+                         const std::string& engine) {
+  std::ostringstream md;
+  md << "**Slices and w.** " << engine
+     << " makes one slice per tile, tiles_x * tiles_y of them, so where the last tile row is not "
+        "full the volume has empty (zero) slices past slice nz - 1. Sample raywarp's w at "
+        "w' = min(w * nz, nz - 0.5) / (tiles_x * tiles_y) (the clamp keeps the last slices' "
+        "blend away from the zero slices):\n\n";
+  for (const Tex& t : texs)
+    if (const json* a = atlas_of(side, t.name)) {
+      const int nz = t.dims()[2];
+      const int tiles = a->at("tiles")[0].get<int>() * a->at("tiles")[1].get<int>();
+      md << "- `" << t.name << "`: nz = " << nz << ", tiles " << num(a->at("tiles")) << " = "
+         << tiles << " slices: "
+         << (tiles == nz ? "none empty, w' = w"
+                         : "w' = min(w * " + std::to_string(nz) + ", " + num(nz - 0.5) + ") / " +
+                               std::to_string(tiles))
+         << ".\n";
+      if (a->value("border", 0) != 0)
+        md << "  - border " << a->value("border", 0)
+           << ": each slice then carries the border texels; re-export with `--atlas-border 0` "
+              "for this engine.\n";
+    }
+  md << "\n";
+  return md.str();
+}
+
+// ---- three.js ---------------------------------------------------------------------------------
+
+// The uniforms gl/renderer.cpp sets that depend on the sidecar alone (viewer/viewer.js loadBox):
+// everything in object units, box frame.
+json box_uniform_values(const json& side) {
+  const std::vector<double> h = side.at("box").at("half_extents").get<std::vector<double>>();
+  const double hmax = *std::max_element(h.begin(), h.end());
+  const json& render = side.at("render");
+  auto times_h = [&](const json& v) {
+    json out = json::array();
+    for (int a = 0; a < 3; ++a) out.push_back(v.at(a).get<double>() * h[a]);
+    return out;
+  };
+  struct Grid {
+    json origin, size, spacing;
+    double smallest = 0;
+  };
+  auto grid = [&](const std::string& name) {
+    const json& t = side.at("textures").at(name);
+    Grid g;
+    g.origin = times_h(t.at("region").at("min"));
+    const json upper = times_h(t.at("region").at("max"));
+    g.size = json::array();
+    g.spacing = json::array();
+    g.smallest = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+      const double s = upper[a].get<double>() - g.origin[a].get<double>();
+      g.size.push_back(s);
+      const double sp = s / t.at("dims")[a].get<double>();
+      g.spacing.push_back(sp);
+      g.smallest = std::min(g.smallest, sp);
+    }
+    return g;
+  };
+  const json& tx = side.at("textures");
+  json u;
+  const json& R = side.at("box").at("rotation");
+  const json& c = side.at("box").at("centre");
+  json b2o = json::array();  // row-major 4x4
+  for (int r = 0; r < 3; ++r) b2o.push_back({R[r][0], R[r][1], R[r][2], c[r]});
+  b2o.push_back({0, 0, 0, 1});
+  u["u_box_to_object"] = b2o;  // row-major; the module makes it a Matrix4
+  u["u_box_to_object_dir"] = R;
+  u["u_half_extents"] = h;
+  u["u_region_lower"] = times_h(render.at("ray_cast_region").at("min"));
+  u["u_region_upper"] = times_h(render.at("ray_cast_region").at("max"));
+  double voxel = 0;
+  if (tx.contains("distance")) {
+    const Grid g = grid("distance");
+    u["u_sdf_origin"] = g.origin;
+    u["u_sdf_size"] = g.size;
+    voxel = g.smallest;
+    u["u_sdf_spacing"] = voxel;
+  }
+  const double voxel_side = render.value("voxel_box_units", 0.0) * hmax;
+  u["u_background"] = render.value("distance_background_voxels", 0.0) * voxel_side;
+  json def_spacing;
+  if (tx.contains("deformation")) {
+    const Grid g = grid("deformation");
+    u["u_def_origin"] = g.origin;
+    u["u_def_size"] = g.size;
+    u["u_def_spacing"] = def_spacing = g.spacing;
+  }
+  // H M H^-1, row-major.
+  json M = json::array();
+  const json& Ms = side.at("texture_map");
+  for (int r = 0; r < 4; ++r) {
+    json row = json::array();
+    for (int k = 0; k < 4; ++k) {
+      const double hr = r < 3 ? h[r] : 1.0, hk = k < 3 ? h[k] : 1.0;
+      row.push_back(hr * Ms[r][k].get<double>() / hk);
+    }
+    M.push_back(row);
+  }
+  u["u_texture_map"] = M;
+  const bool cut = render.value("has_cut", false);
+  double cut_margin = 0;
+  if (tx.contains("alpha")) {
+    const Grid g = grid("alpha");
+    u["u_alpha_origin"] = g.origin;
+    u["u_alpha_size"] = g.size;
+    u["u_alpha_spacing"] = g.spacing;
+    if (cut) {
+      auto norm = [](const json& v) {
+        double s = 0;
+        for (const auto& x : v) s += x.get<double>() * x.get<double>();
+        return std::sqrt(s);
+      };
+      cut_margin = norm(g.spacing) + (def_spacing.is_null() ? 0.0 : 0.5 * norm(def_spacing));
+    }
+  }
+  u["u_thickness"] = cut ? render.value("shell_thickness_voxels", 0.0) * voxel_side : 0.0;
+  u["u_cut_margin"] = cut_margin;
+  const double lip = render.value("lipschitz", -1.0);
+  u["u_lipschitz"] = lip;  // -1: unknown, the module uploads Infinity
+  u["u_seam"] = render.value("seam_voxels", 1.0) * voxel;
+  if (tx.contains("step_bounds_d") && tx.contains("step_bounds_sdf")) {
+    const Grid d = grid("step_bounds_d"), s = grid("step_bounds_sdf");
+    u["u_brick_origin"] = d.origin;
+    u["u_brick_spacing"] = d.spacing;
+    u["u_sdf_brick_origin"] = s.origin;
+    u["u_sdf_brick_spacing"] = s.smallest;
+    const double vl =
+        render.contains("step_bounds")
+            ? render.at("step_bounds").value("validity_lipschitz_box_units", 0.0) / hmax
+            : 0.0;
+    u["u_inv_lipschitz_w"] = vl > 0 ? 1.0 / vl : 0.0;
+  }
+  return u;
+}
+
+// The GLSL ES 3.00 shaders write_shader_bundle wrote beside the sidecar (raywarp library), if any:
+// the box's fragment shader STEM.raycast.es.frag.glsl and the entry's vertex shader.
+json find_es_shaders(const fs::path& dir, const std::string& stem) {
+  const std::string frag = stem + ".raycast.es.frag.glsl";
+  if (!fs::exists(dir / frag)) return nullptr;
+  std::vector<std::string> bases = {stem};
+  std::smatch m;
+  static const std::regex box_suffix(R"(^(.*)_box[0-9]+$)");
+  if (std::regex_match(stem, m, box_suffix)) bases.insert(bases.begin(), m[1].str());
+  for (const std::string& b : bases) {
+    const std::string vert = b + ".raycast.es.vert.glsl";
+    if (fs::exists(dir / vert)) {
+      json out = {{"vertex", vert}, {"fragment", frag}};
+      if (fs::exists(dir / (b + ".shaders.md"))) out["uniforms"] = b + ".shaders.md";
+      return out;
+    }
+  }
+  return nullptr;
+}
+
+std::string threejs_module(const json& side, const std::string& stem, const std::vector<Tex>& texs,
+                           const json& shaders) {
+  json files = json::object(), tex_json = json::object();
+  for (const Tex& t : texs) {
+    tex_json[t.name] = {{"dims", t.info.at("dims")},
+                        {"scale", t.info.at("scale")},
+                        {"channels", t.info.value("channels", json::array())},
+                        {"region", t.info.at("region")},
+                        {"nearest", is_nearest(t.name)}};
+    if (const json* f = file_of(side, t.name, "ktx2")) files[t.name] = f->at("file");
+  }
+  json samplers = json::object();
+  for (const TextureRole& r : kRoles) samplers[r.name] = r.sampler;
+  const json settings = render_settings_to_json(RenderSettings{});
+  std::ostringstream js;
+  js << "// Generated by raywarp for " << stem << " (" << side.value("description", std::string())
+     << "). three.js ES module.\n"
+     << "// Loads every texture of the box from its KTX2 file (plain vkFormat, so KTX2Loader "
+        "makes\n"
+     << "// a Data3DTexture: pixelDepth > 0) with LinearFilter (the step bounds NearestFilter),\n"
+     << "// ClampToEdgeWrapping on s, t and r, no mipmaps, NoColorSpace; decodes each texel to\n"
+     << "// object units (object = stored * scale[channel]); and, where raywarp wrote the GLSL ES\n"
+     << "// 3.00 shaders beside the textures (`raywarp library`), builds the box's ray-cast\n"
+     << "// RawShaderMaterial with every sidecar-derived uniform filled. See CHECKLIST.md.\n"
+     << "//\n"
+     << "//   import { loadRaywarpBox, setRaywarpCamera } from './raywarp_" << stem << ".js';\n"
+     << "//   const box = await loadRaywarpBox({ renderer });\n"
+     << "//   scene.add(box.mesh);  // the unit cube scaled onto the box (when shaders exist)\n"
+     << "//   renderer.setAnimationLoop(() => { setRaywarpCamera(box.material, camera, object,\n"
+     << "//       width, height); renderer.render(scene, camera); });\n"
+     << "import * as THREE from 'three';\n"
+     << "import { KTX2Loader } from 'three/addons/loaders/KTX2Loader.js';\n\n"
+     << "export const STEM = " << lit(stem) << ";\n"
+     << "// The sidecar's box: centre, half extents h (object units), rotation (columns: box "
+        "axes).\n"
+     << "export const BOX = " << side.at("box").dump() << ";\n"
+     << "// Each texture: dims, object = stored * scale[channel], region (box units).\n"
+     << "export const TEXTURES = " << tex_json.dump() << ";\n"
+     << "// The KTX2 file of each texture, relative to the export folder.\n"
+     << "export const FILES = " << files.dump() << ";\n"
+     << "export const SAMPLERS = " << samplers.dump() << ";\n"
+     << "// The GLSL ES 3.00 shaders beside the textures (null: none written; see CHECKLIST.md).\n"
+     << "export const SHADERS = " << shaders.dump() << ";\n"
+     << "// Uniforms from the sidecar alone, object units (matrices row-major here).\n"
+     << "export const BOX_UNIFORMS = " << box_uniform_values(side).dump() << ";\n"
+     << "// raywarp's default render settings (the scene's `render`, docs/scene.md).\n"
+     << "export const DEFAULT_SETTINGS = " << settings.dump() << ";\n\n"
+     << R"JS(const UNITS = { u_sdf: 0, u_deformation: 1, u_alpha: 2, u_bricks: 3, u_sdf_bricks: 4 };
+
+// object = stored * scale[channel], in place, in the texture's own type (half floats are
+// re-rounded to half: a relative error of at most 2^-12 more).
+function decodeToObjectUnits(texture, scale) {
+  const arrays = new Set([texture.image.data]);
+  for (const m of texture.mipmaps || []) if (m && m.data) arrays.add(m.data);
+  const n = scale.length;
+  for (const data of arrays) {
+    if (texture.type === THREE.HalfFloatType) {
+      for (let i = 0; i < data.length; ++i)
+        data[i] = THREE.DataUtils.toHalfFloat(THREE.DataUtils.fromHalfFloat(data[i]) * scale[i % n]);
+    } else if (texture.type === THREE.FloatType) {
+      for (let i = 0; i < data.length; ++i) data[i] *= scale[i % n];
+    } else {
+      throw new Error(STEM + ': unexpected texture type ' + texture.type);
+    }
+  }
+}
+
+function matrix4(rowMajor) {
+  return new THREE.Matrix4().set(...rowMajor.flat());
+}
+
+// Loads the textures (and shaders); options: { baseUrl (the export folder, default two folders
+// above this module), ktx2Loader (a configured KTX2Loader), renderer (for detectSupport),
+// settings (render settings overriding DEFAULT_SETTINGS), decode (default true) }.
+export async function loadRaywarpBox(options = {}) {
+  const base = options.baseUrl ? new URL(options.baseUrl, location.href) : new URL('../../', import.meta.url);
+  const loader = options.ktx2Loader || new KTX2Loader();
+  if (!options.ktx2Loader && options.renderer) loader.detectSupport(options.renderer);
+  const textures = {};
+  await Promise.all(Object.entries(FILES).map(async ([name, file]) => {
+    const t = await loader.loadAsync(new URL(file, base).href);
+    if (!t.isData3DTexture) throw new Error(file + ': not a 3D texture');
+    const d = TEXTURES[name].dims;
+    if (t.image.width !== d[0] || t.image.height !== d[1] || t.image.depth !== d[2])
+      throw new Error(file + ': ' + [t.image.width, t.image.height, t.image.depth].join('x') +
+                      ' texels, the sidecar says ' + d.join('x'));
+    const filter = TEXTURES[name].nearest ? THREE.NearestFilter : THREE.LinearFilter;
+    t.magFilter = filter;
+    t.minFilter = filter;
+    t.wrapS = t.wrapT = t.wrapR = THREE.ClampToEdgeWrapping;
+    t.generateMipmaps = false;
+    t.colorSpace = THREE.NoColorSpace;
+    t.flipY = false;
+    t.unpackAlignment = 1;
+    if (options.decode !== false) decodeToObjectUnits(t, TEXTURES[name].scale);
+    t.needsUpdate = true;
+    textures[name] = t;
+  }));
+  const settings = Object.assign({}, DEFAULT_SETTINGS, options.settings || {});
+  const uniforms = boxUniforms(textures, settings);
+  let material = null, mesh = null;
+  if (SHADERS) {
+    const text = async (f) => (await fetch(new URL(f, base).href)).text();
+    const strip = (s) => s.replace(/^\s*#version[^\n]*\n/, '');  // three.js writes #version 300 es
+    const [vertex, fragment] = await Promise.all([text(SHADERS.vertex), text(SHADERS.fragment)]);
+    material = new THREE.RawShaderMaterial({
+      glslVersion: THREE.GLSL3, vertexShader: strip(vertex), fragmentShader: strip(fragment),
+      uniforms, side: THREE.BackSide, depthTest: true, depthWrite: true, transparent: false });
+    mesh = new THREE.Mesh(raywarpCube(), material);
+    mesh.frustumCulled = false;  // the vertex shader places the cube
+  }
+  return { textures, uniforms, material, mesh, settings };
+}
+
+// The uniforms of the ray-cast shaders as gl/renderer.cpp sets them, camera aside.
+export function boxUniforms(textures, settings = DEFAULT_SETTINGS) {
+  const B = BOX_UNIFORMS, u = {};
+  const v3 = (a) => new THREE.Vector3(a[0], a[1], a[2]);
+  const boxToObject = matrix4(B.u_box_to_object);
+  u.u_box_to_object = { value: boxToObject };
+  u.u_object_to_box = { value: boxToObject.clone().invert() };
+  u.u_box_to_object_dir = { value: new THREE.Matrix3().set(...B.u_box_to_object_dir.flat()) };
+  u.u_texture_map = { value: matrix4(B.u_texture_map) };
+  for (const [k, x] of Object.entries(B)) {
+    if (u[k]) continue;
+    u[k] = { value: Array.isArray(x) ? v3(x) : x };
+  }
+  u.u_lipschitz = { value: B.u_lipschitz < 0 ? Infinity : B.u_lipschitz };
+  const voxel = B.u_sdf_spacing;
+  u.u_step = { value: settings.step_voxels * voxel };
+  u.u_threshold = { value: settings.threshold_voxels * voxel };
+  u.u_fine_factor = { value: settings.fine_factor };
+  u.u_epsilon = { value: settings.hit_epsilon_voxels * voxel };
+  u.u_max_steps = { value: settings.max_steps };
+  u.u_refine_steps = { value: settings.refine_steps };
+  u.u_albedo = { value: v3(settings.colour) };
+  u.u_inside_colour = { value: v3(settings.inside_colour) };
+  u.u_cut_colour = { value: v3(settings.cut_colour) };
+  for (const [name, t] of Object.entries(textures)) u[SAMPLERS[name] || name] = { value: t };
+  // Camera uniforms: setRaywarpCamera fills them every frame.
+  u.u_view_proj = { value: new THREE.Matrix4() };
+  u.u_inv_view_proj = { value: new THREE.Matrix4() };
+  u.u_eye = { value: new THREE.Vector3() };
+  u.u_view_dir = { value: new THREE.Vector3(0, 0, -1) };
+  u.u_viewport = { value: new THREE.Vector2(1, 1) };
+  u.u_orthographic = { value: false };
+  return u;
+}
+
+// Camera uniforms in the mesh's object space: `object` is the Object3D whose local frame is the
+// mesh's (its matrixWorld maps object space to the world); width x height the drawing buffer.
+export function setRaywarpCamera(material, camera, object, width, height) {
+  const u = material.uniforms;
+  camera.updateMatrixWorld();
+  object.updateMatrixWorld();
+  const world = object.matrixWorld, toObject = world.clone().invert();
+  u.u_view_proj.value.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse).multiply(world);
+  u.u_inv_view_proj.value.copy(u.u_view_proj.value).invert();
+  u.u_eye.value.setFromMatrixPosition(camera.matrixWorld).applyMatrix4(toObject);
+  camera.getWorldDirection(u.u_view_dir.value);
+  u.u_view_dir.value.transformDirection(toObject);
+  u.u_viewport.value.set(width, height);
+  u.u_orthographic.value = !!camera.isOrthographicCamera;
+}
+
+// The unit cube [0, 1]^3 the ray-cast vertex shader scales onto the box's region (attribute
+// a_corner; counter-clockwise seen from outside; drawn with front faces culled: BackSide).
+export function raywarpCube() {
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('a_corner', new THREE.BufferAttribute(new Float32Array(
+      [0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1]), 3));
+  g.setIndex([0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+              2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5]);
+  return g;
+}
+
+export { UNITS };
+)JS";
+  return js.str();
+}
+
+// ---- Unity ------------------------------------------------------------------------------------
+
+std::string cs_ident(const std::string& s) {
+  std::string out;
+  for (char c : s) out += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  if (out.empty() || std::isdigit(static_cast<unsigned char>(out[0]))) out = "_" + out;
+  return out;
+}
+
+std::string unity_volume_script(const std::string& stem, const std::vector<std::string>& files) {
+  std::ostringstream cs;
+  cs << "// Generated by raywarp for " << stem
+     << ". Unity editor script: put it in an Editor folder, copy the listed files\n"
+     << "// into Assets/Raywarp/" << stem
+     << "/ (or set SourceFolder), then run the menu item. It reads each\n"
+     << "// DDS (DX10 or legacy FourCC) or KTX2 volume, builds a Texture3D in the file's own\n"
+     << "// format (RHalf, RGHalf, RGBAHalf, RFloat, RGFloat, RGBAFloat: float formats, always\n"
+     << "// linear, never sRGB) with no mip chain, wrap Clamp, filter Bilinear, and saves it as "
+        "an\n"
+     << "// asset. Texel memory order is kept: x fastest, then y, then z, so Unity's texel (0, 0, "
+        "0)\n"
+     << "// is raywarp's and the texture coordinates are the same (no flip on this route).\n"
+     << "// Values stay as stored: decode object = stored * scale in the shader (CHECKLIST.md).\n"
+     << "using System;\nusing System.IO;\nusing UnityEditor;\nusing UnityEngine;\n\n"
+     << "public static class RaywarpImport_" << cs_ident(stem) << "\n{\n"
+     << "    public static string SourceFolder = \"Assets/Raywarp/" << stem << "\";\n"
+     << "    static readonly string[] Files = {";
+  for (size_t i = 0; i < files.size(); ++i) cs << (i ? ", " : " ") << lit(files[i]);
+  cs << " };\n\n"
+     << "    [MenuItem(\"Tools/Raywarp/Import " << stem << " volumes\")]\n"
+     << R"CS(    public static void ImportAll()
+    {
+        foreach (string file in Files)
+        {
+            string path = Path.Combine(SourceFolder, file);
+            Texture3D texture = Read(path);
+            string asset = Path.Combine(SourceFolder, Path.GetFileNameWithoutExtension(file) + ".asset");
+            AssetDatabase.CreateAsset(texture, asset);
+            Debug.Log("raywarp: " + asset + " (" + texture.width + "x" + texture.height + "x" + texture.depth + ", " + texture.format + ")");
+        }
+        AssetDatabase.SaveAssets();
+    }
+
+    static uint U32(byte[] b, int at) { return BitConverter.ToUInt32(b, at); }
+
+    // DXGI_FORMAT or D3DFORMAT of a DDS volume -> channels and bytes per channel.
+    static TextureFormat DdsFormat(uint code, bool dx10, string path)
+    {
+        if (dx10)
+        {
+            switch (code)
+            {
+                case 54: return TextureFormat.RHalf;      // DXGI_FORMAT_R16_FLOAT
+                case 34: return TextureFormat.RGHalf;     // DXGI_FORMAT_R16G16_FLOAT
+                case 10: return TextureFormat.RGBAHalf;   // DXGI_FORMAT_R16G16B16A16_FLOAT
+                case 41: return TextureFormat.RFloat;     // DXGI_FORMAT_R32_FLOAT
+                case 16: return TextureFormat.RGFloat;    // DXGI_FORMAT_R32G32_FLOAT
+                case 2: return TextureFormat.RGBAFloat;   // DXGI_FORMAT_R32G32B32A32_FLOAT
+            }
+        }
+        else
+        {
+            switch (code)
+            {
+                case 111: return TextureFormat.RHalf;     // D3DFMT_R16F
+                case 112: return TextureFormat.RGHalf;    // D3DFMT_G16R16F
+                case 113: return TextureFormat.RGBAHalf;  // D3DFMT_A16B16G16R16F
+                case 114: return TextureFormat.RFloat;    // D3DFMT_R32F
+                case 115: return TextureFormat.RGFloat;   // D3DFMT_G32R32F
+                case 116: return TextureFormat.RGBAFloat; // D3DFMT_A32B32G32R32F
+            }
+        }
+        throw new Exception(path + ": unsupported DDS format " + code);
+    }
+
+    static TextureFormat VkFormat(uint code, string path)
+    {
+        switch (code)
+        {
+            case 76: return TextureFormat.RHalf;      // VK_FORMAT_R16_SFLOAT
+            case 83: return TextureFormat.RGHalf;     // VK_FORMAT_R16G16_SFLOAT
+            case 97: return TextureFormat.RGBAHalf;   // VK_FORMAT_R16G16B16A16_SFLOAT
+            case 100: return TextureFormat.RFloat;    // VK_FORMAT_R32_SFLOAT
+            case 103: return TextureFormat.RGFloat;   // VK_FORMAT_R32G32_SFLOAT
+            case 109: return TextureFormat.RGBAFloat; // VK_FORMAT_R32G32B32A32_SFLOAT
+        }
+        throw new Exception(path + ": unsupported KTX2 vkFormat " + code);
+    }
+
+    static int BytesPerTexel(TextureFormat f)
+    {
+        switch (f)
+        {
+            case TextureFormat.RHalf: return 2;
+            case TextureFormat.RGHalf: return 4;
+            case TextureFormat.RGBAHalf: return 8;
+            case TextureFormat.RFloat: return 4;
+            case TextureFormat.RGFloat: return 8;
+            default: return 16;
+        }
+    }
+
+    public static Texture3D Read(string path)
+    {
+        byte[] b = File.ReadAllBytes(path);
+        int width, height, depth, offset;
+        TextureFormat format;
+        if (b.Length >= 128 && b[0] == 'D' && b[1] == 'D' && b[2] == 'S' && b[3] == ' ')
+        {
+            height = (int)U32(b, 12);
+            width = (int)U32(b, 16);
+            depth = (int)U32(b, 24);
+            uint fourcc = U32(b, 84);
+            bool dx10 = fourcc == 0x30315844u;  // "DX10"
+            format = DdsFormat(dx10 ? U32(b, 128) : fourcc, dx10, path);
+            offset = dx10 ? 148 : 128;
+        }
+        else if (b.Length >= 104 && b[0] == 0xAB && b[1] == 'K' && b[2] == 'T' && b[3] == 'X')
+        {
+            format = VkFormat(U32(b, 12), path);
+            width = (int)U32(b, 20);
+            height = (int)U32(b, 24);
+            depth = (int)U32(b, 28);
+            if (U32(b, 44) != 0) throw new Exception(path + ": supercompressed KTX2");
+            offset = (int)BitConverter.ToUInt64(b, 80);  // level 0's byteOffset
+        }
+        else
+        {
+            throw new Exception(path + ": neither DDS nor KTX2");
+        }
+        int bytes = width * height * depth * BytesPerTexel(format);
+        if (depth < 1 || offset + bytes > b.Length) throw new Exception(path + ": truncated");
+        byte[] texels = new byte[bytes];
+        Array.Copy(b, offset, texels, 0, bytes);
+        Texture3D texture = new Texture3D(width, height, depth, format, false);
+        texture.wrapMode = TextureWrapMode.Clamp;
+        texture.filterMode = path.Contains("step_bounds") ? FilterMode.Point : FilterMode.Bilinear;
+        texture.anisoLevel = 0;
+        texture.SetPixelData(texels, 0, 0);
+        texture.Apply(false, false);
+        return texture;
+    }
+}
+)CS";
+  return cs.str();
+}
+
+std::string unity_atlas_script(const std::string& stem, const json& side,
+                               const std::vector<Tex>& texs) {
+  std::ostringstream cs;
+  cs << "// Generated by raywarp for " << stem
+     << ". Unity editor script (Editor folder): the import settings of the\n"
+     << "// tiled atlases as 3D textures, applied by an AssetPostprocessor whenever Unity imports\n"
+     << "// one of the files below: texture shape 3D, flipbook columns x rows = the atlas tiles,\n"
+     << "// sRGB off, no mipmaps, no compression, no resize (NPOT none, max size 16384), wrap\n"
+     << "// Clamp, filter Bilinear (the step bounds Point), readable off.\n"
+     << "// Unity's images have v = 0 at the bottom row: every imported slice is upside down\n"
+     << "// relative to raywarp's (its texel row j = 0 is the tile's top row), so in Unity sample\n"
+     << "// v' = 1 - v (CHECKLIST.md); the DDS route (RaywarpImport_" << stem
+     << ".cs) needs no flip.\n"
+     << "using UnityEditor;\nusing UnityEngine;\n\n"
+     << "public class RaywarpAtlasImport_" << cs_ident(stem) << " : AssetPostprocessor\n{\n"
+     << "    // file name, flipbook columns, flipbook rows, point filtering\n"
+     << "    static readonly string[] Names = {";
+  std::vector<std::string> names, cols, rows, points;
+  for (const Tex& t : texs)
+    if (const json* a = atlas_of(side, t.name)) {
+      names.push_back(lit(a->at("file").get<std::string>()));
+      cols.push_back(num(a->at("tiles")[0]));
+      rows.push_back(num(a->at("tiles")[1]));
+      points.push_back(is_nearest(t.name) ? "true" : "false");
+    }
+  auto list = [&](const std::vector<std::string>& v) {
+    std::string s;
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : " ") + v[i];
+    return s + " ";
+  };
+  cs << list(names) << "};\n"
+     << "    static readonly int[] Columns = {" << list(cols) << "};\n"
+     << "    static readonly int[] Rows = {" << list(rows) << "};\n"
+     << "    static readonly bool[] Point = {" << list(points) << "};\n\n"
+     << R"CS(    void OnPreprocessTexture()
+    {
+        string file = System.IO.Path.GetFileName(assetPath);
+        int i = System.Array.IndexOf(Names, file);
+        if (i < 0) return;
+        TextureImporter importer = (TextureImporter)assetImporter;
+        TextureImporterSettings settings = new TextureImporterSettings();
+        importer.ReadTextureSettings(settings);
+        settings.textureShape = TextureImporterShape.Texture3D;
+        settings.flipbookColumns = Columns[i];
+        settings.flipbookRows = Rows[i];
+        settings.sRGBTexture = false;
+        settings.mipmapEnabled = false;
+        settings.npotScale = TextureImporterNPOTScale.None;
+        settings.wrapMode = TextureWrapMode.Clamp;
+        settings.filterMode = Point[i] ? FilterMode.Point : FilterMode.Bilinear;
+        settings.readable = false;
+        importer.SetTextureSettings(settings);
+        importer.textureCompression = TextureImporterCompression.Uncompressed;
+        importer.maxTextureSize = 16384;
+        importer.mipmapEnabled = false;
+        importer.sRGBTexture = false;
+    }
+}
+)CS";
+  return cs.str();
+}
+
+// ---- Unreal -----------------------------------------------------------------------------------
+
+std::string unreal_script(const std::string& stem, const json& side, const std::vector<Tex>& texs) {
+  json list = json::array();
+  for (const Tex& t : texs)
+    if (const json* a = atlas_of(side, t.name)) {
+      const int tx = a->at("tiles")[0].get<int>(), ty = a->at("tiles")[1].get<int>();
+      json e = {{"texture", t.name},
+                {"file", a->at("file")},
+                {"format", a->at("format")},
+                {"storage", a->value("storage", "half")},
+                {"tiles", a->at("tiles")},
+                {"tile_size", {a->at("size")[0].get<int>() / tx, a->at("size")[1].get<int>() / ty}},
+                {"dims", t.info.at("dims")},
+                {"scale", t.info.at("scale")},
+                {"region", t.info.at("region")},
+                {"nearest", is_nearest(t.name)}};
+      if (a->contains("lo")) e["lo"] = a->at("lo"), e["hi"] = a->at("hi");
+      list.push_back(e);
+    }
+  std::ostringstream py;
+  py << "\"\"\"Generated by raywarp for " << stem << ": Unreal Engine 5 editor script.\n\n"
+     << "Imports each tiled atlas of the box (OpenEXR, else the 16-bit PNG) as a Texture2D with\n"
+     << "sRGB off, HDR compression (TC_HDR_F32 for float storage), no mipmaps, never streamed,\n"
+     << "then builds a VolumeTexture from it with the atlas's tile size: slice z is tile\n"
+     << "(z % tiles_x, z // tiles_x) from the top-left, as raywarp writes it. Run it in the "
+        "editor\n"
+     << "(Tools > Execute Python Script, or `py import_" << stem
+     << ".py` in the console) with the\n"
+     << "Python Editor Script Plugin enabled. Values stay as stored: decode object = stored *\n"
+     << "scale (PNG: lo + code * (hi - lo) first) in the material. See CHECKLIST.md.\n\"\"\"\n"
+     << "import json\nimport os\n\nimport unreal\n\n"
+     << "HERE = os.path.dirname(os.path.abspath(__file__))\n"
+     << "EXPORT_DIR = os.path.normpath(os.path.join(HERE, \"..\", \"..\"))\n"
+     << "DESTINATION = \"/Game/Raywarp/" << stem << "\"\n"
+     << "ATLASES = json.loads(r'''" << list.dump() << "''')\n"
+     << R"PY(
+
+def set_props(asset, props):
+    for name, value in props.items():
+        asset.set_editor_property(name, value)
+
+
+def import_atlas(entry):
+    task = unreal.AssetImportTask()
+    task.set_editor_property("filename", os.path.join(EXPORT_DIR, entry["file"]))
+    task.set_editor_property("destination_path", DESTINATION)
+    task.set_editor_property("automated", True)
+    task.set_editor_property("replace_existing", True)
+    task.set_editor_property("save", False)
+    unreal.AssetToolsHelpers.get_asset_tools().import_asset_tasks([task])
+    paths = task.get_editor_property("imported_object_paths")
+    if not paths:
+        raise RuntimeError("could not import " + entry["file"])
+    texture = unreal.load_asset(paths[0])
+    compression = unreal.TextureCompressionSettings.TC_HDR
+    if entry["storage"] == "float":
+        compression = unreal.TextureCompressionSettings.TC_HDR_F32
+    set_props(texture, {
+        "srgb": False,
+        "compression_settings": compression,
+        "mip_gen_settings": unreal.TextureMipGenSettings.TMGS_NO_MIPMAPS,
+        "lod_group": unreal.TextureGroup.TEXTUREGROUP_16_BIT_DATA,
+        "never_stream": True,
+        "filter": unreal.TextureFilter.TF_NEAREST if entry["nearest"] else unreal.TextureFilter.TF_DEFAULT,
+        "address_x": unreal.TextureAddress.TA_CLAMP,
+        "address_y": unreal.TextureAddress.TA_CLAMP,
+    })
+    unreal.EditorAssetLibrary.save_loaded_asset(texture)
+    return texture
+
+
+def make_volume(entry, atlas):
+    tools = unreal.AssetToolsHelpers.get_asset_tools()
+    name = "VT_" + os.path.splitext(os.path.basename(entry["file"]))[0].replace(".", "_")
+    path = DESTINATION + "/" + name
+    volume = unreal.load_asset(path) if unreal.EditorAssetLibrary.does_asset_exist(path) else None
+    if volume is None:
+        volume = tools.create_asset(name, DESTINATION, unreal.VolumeTexture, unreal.VolumeTextureFactory())
+    # Setting the source resets the tile size: set the tile size after it.
+    volume.set_editor_property("source2d_texture", atlas)
+    volume.set_editor_property("source2d_tile_size_x", entry["tile_size"][0])
+    volume.set_editor_property("source2d_tile_size_y", entry["tile_size"][1])
+    set_props(volume, {
+        "srgb": False,
+        "compression_settings": atlas.get_editor_property("compression_settings"),
+        "mip_gen_settings": unreal.TextureMipGenSettings.TMGS_NO_MIPMAPS,
+        "lod_group": unreal.TextureGroup.TEXTUREGROUP_16_BIT_DATA,
+        "never_stream": True,
+        "filter": unreal.TextureFilter.TF_NEAREST if entry["nearest"] else unreal.TextureFilter.TF_DEFAULT,
+        "address_mode": unreal.TextureAddress.TA_CLAMP,
+    })
+    unreal.EditorAssetLibrary.save_loaded_asset(volume)
+    slices = entry["tiles"][0] * entry["tiles"][1]
+    unreal.log("raywarp: %s: %d x %d x %d slices (%d hold data)" % (
+        path, entry["tile_size"][0], entry["tile_size"][1], slices, entry["dims"][2]))
+    return volume
+
+
+def main():
+    if not ATLASES:
+        unreal.log_error("raywarp: no atlas files in this export; re-export with --format atlas-exr")
+        return
+    for entry in ATLASES:
+        make_volume(entry, import_atlas(entry))
+
+
+if __name__ == "__main__":
+    main()
+)PY";
+  return py.str();
+}
+
+// ---- Godot ------------------------------------------------------------------------------------
+
+std::string godot_import(const json& atlas) {
+  std::ostringstream ini;
+  ini << "; Generated by raywarp: Godot 4 import settings of "
+      << atlas.at("file").get<std::string>() << " as a Texture3D.\n"
+      << "; Put this file beside the image (same name + .import) before Godot first scans it,\n"
+      << "; or copy the [params] into the Import dock. Godot fills in uid, path and [deps].\n"
+      << "[remap]\n\nimporter=\"3d_texture\"\ntype=\"CompressedTexture3D\"\n\n[params]\n\n"
+      << "compress/mode=0\n"  // Lossless (float images are stored VRAM Uncompressed)
+      << "compress/high_quality=false\ncompress/high_quality_mode=0\ncompress/lossy_quality=0.7\n"
+      << "compress/uastc_level=0\ncompress/rdo_quality_loss=0.0\n"
+      << "compress/hdr_compression=0\ncompress/channel_pack=1\n"
+      << "mipmaps/generate=false\nmipmaps/limit=-1\n"
+      << "slices/horizontal=" << num(atlas.at("tiles")[0]) << "\n"
+      << "slices/vertical=" << num(atlas.at("tiles")[1]) << "\n";
+  return ini.str();
+}
+
+}  // namespace
+
+json write_engine_bundles(const json& side, const fs::path& dir, const std::string& stem) {
+  if (side.value("schema", "") != "raywarp.export" || side.value("version", 0) != 1)
+    throw Error(stem + ".json: not a raywarp.export version 1 sidecar");
+  const std::string folder = stem + ".engines";
+  const fs::path root = dir / folder;
+  const std::vector<Tex> texs = textures_of(side);
+  json result = {{"folder", folder}, {"engines", json::object()}};
+  auto rel = [&](const std::string& engine, const std::string& name) {
+    return folder + "/" + engine + "/" + name;
+  };
+  const bool ktx2 = has_format(side, "ktx2"), dds = has_format(side, "dds");
+  const bool exr = has_format(side, "atlas-exr"), png = has_format(side, "atlas-png");
+  const std::string common = common_checklist(side, stem, texs);
+
+  // three.js
+  {
+    json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
+    std::vector<std::string> missing;
+    if (ktx2)
+      e["formats"].push_back("ktx2");
+    else
+      missing.push_back("--format ktx2");
+    const json shaders = find_es_shaders(dir, stem);
+    const std::string module = "raywarp_" + stem + ".js";
+    write_text(root / "threejs" / module, threejs_module(side, stem, texs, shaders));
+    e["files"].push_back(rel("threejs", module));
+    const json u = box_uniform_values(side);
+    std::ostringstream md;
+    md << "# three.js checklist: " << stem << "\n\n"
+       << missing_section(missing,
+                          "This bundle loads the KTX2 files, and the export has none: the module "
+                          "finds nothing to load.")
+       << "## Use\n\n`" << module
+       << "` is an ES module (it imports `three` and "
+          "`three/addons/loaders/KTX2Loader.js`: an import map or a bundler resolves them). "
+          "`loadRaywarpBox({renderer})` loads every texture with `KTX2Loader` into a "
+          "`Data3DTexture` (KTX2 with a plain vkFormat and pixelDepth > 0; RGBA16F and R16F "
+          "included), sets LinearFilter (step bounds NearestFilter), ClampToEdgeWrapping on "
+          "wrapS, wrapT and wrapR, generateMipmaps = false, colorSpace = NoColorSpace, and "
+          "decodes each texel to object units in place. By default it reads the files two "
+          "folders above the module (the export folder); pass `baseUrl` otherwise.\n\n";
+    if (!shaders.is_null())
+      md << "Shaders: `" << shaders.at("vertex").get<std::string>() << "` and `"
+         << shaders.at("fragment").get<std::string>()
+         << "` (GLSL ES 3.00, as raywarp compiles them) become a `RawShaderMaterial` "
+            "(glslVersion GLSL3, side BackSide: the unit cube is drawn with front faces "
+            "culled; the shader writes gl_FragDepth, so it composites with the scene by the "
+            "depth test). Call `setRaywarpCamera(material, camera, object, width, height)` every "
+            "frame, `object` being the Object3D whose frame is the mesh's object space. Output "
+            "0 is sRGB-encoded colour: render to a linear target with no further encoding. The "
+            "rest of the mesh (outside the box) is drawn by raywarp's raster pass, or by your own "
+            "material discarding fragments inside the box.";
+    else
+      md << "Shaders: none beside the textures (`raywarp bake` writes none; `raywarp library` "
+            "writes `NAME.raycast.es.vert.glsl` and `NAME_boxI.raycast.es.frag.glsl`). The module "
+            "then returns `material = null` and the `uniforms` your own shader needs, computed "
+            "as gl/renderer.cpp does (see below and the library's `NAME.shaders.md`).";
+    md << "\n\n## Uniforms from the sidecar (object units, box frame)\n\n"
+       << "| uniform | value | from |\n| --- | --- | --- |\n";
+    static const std::map<std::string, std::string> from = {
+        {"u_box_to_object", "[R | c]: box.rotation, box.centre"},
+        {"u_box_to_object_dir", "box.rotation"},
+        {"u_half_extents", "box.half_extents (h)"},
+        {"u_region_lower", "render.ray_cast_region.min * h"},
+        {"u_region_upper", "render.ray_cast_region.max * h"},
+        {"u_sdf_origin", "textures.distance.region.min * h"},
+        {"u_sdf_size", "(region.max - region.min) * h"},
+        {"u_sdf_spacing", "min(u_sdf_size / dims): the voxel"},
+        {"u_background", "render.distance_background_voxels * voxel_box_units * max(h)"},
+        {"u_def_origin", "textures.deformation.region.min * h"},
+        {"u_def_size", "(region.max - region.min) * h"},
+        {"u_def_spacing", "u_def_size / dims"},
+        {"u_texture_map", "H M H^-1, H = diag(h, 1), M = texture_map"},
+        {"u_thickness", "render.shell_thickness_voxels * voxel_box_units * max(h) (0 uncut)"},
+        {"u_cut_margin", "|u_alpha_spacing| + 0.5 |u_def_spacing| (0 uncut)"},
+        {"u_lipschitz", "render.lipschitz (-1: +infinity)"},
+        {"u_seam", "render.seam_voxels * voxel"},
+        {"u_brick_origin", "textures.step_bounds_d.region.min * h"},
+        {"u_brick_spacing", "its (region.max - region.min) * h / dims"},
+        {"u_sdf_brick_origin", "textures.step_bounds_sdf.region.min * h"},
+        {"u_sdf_brick_spacing", "min of its (region.max - region.min) * h / dims"},
+        {"u_inv_lipschitz_w", "max(h) / render.step_bounds.validity_lipschitz_box_units"},
+    };
+    for (auto it = u.begin(); it != u.end(); ++it) {
+      auto f = from.find(it.key());
+      md << "| `" << it.key() << "` | " << it.value().dump() << " | "
+         << (f != from.end() ? f->second : "") << " |\n";
+    }
+    md << "\nFrom the render settings (defaults of docs/scene.md unless `settings` overrides "
+          "them): u_step = step_voxels * voxel, u_threshold = threshold_voxels * voxel, "
+          "u_epsilon = hit_epsilon_voxels * voxel, u_fine_factor, u_max_steps, u_refine_steps, "
+          "u_albedo, u_inside_colour, u_cut_colour. Per frame: u_view_proj, u_inv_view_proj, "
+          "u_eye, u_view_dir, u_viewport, u_orthographic (setRaywarpCamera). Samplers: "
+          "u_deformation, u_sdf, u_alpha, u_bricks, u_sdf_bricks.\n\n"
+       << common
+       << orientation_section(
+              "as `orientation.ktx2` (change FILES to `{orientation: 'orientation.ktx2'}` and "
+              "TEXTURES' scale to 1, or call `new KTX2Loader().loadAsync('orientation.ktx2')` "
+              "and set the filters as the module does), draw it with a ShaderMaterial reading "
+              "`texture(tex, vec3(u, v, w))`",
+              "three.js uploads Data3DTexture rows as stored (flipY false): v = 0 is texel row "
+              "0, no flip.",
+              "w = 0 is slice 0.");
+    write_text(root / "threejs" / "CHECKLIST.md", md.str());
+    e["files"].push_back(rel("threejs", "CHECKLIST.md"));
+    for (const std::string& m : missing) e["missing"].push_back(m);
+    result["engines"]["threejs"] = e;
+  }
+
+  // Unity
+  {
+    json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
+    std::vector<std::string> missing;
+    std::vector<std::string> volume_files;
+    const char* volume_format = dds ? "dds" : (ktx2 ? "ktx2" : nullptr);
+    if (volume_format) {
+      e["formats"].push_back(volume_format);
+      for (const Tex& t : texs)
+        if (const json* f = file_of(side, t.name, volume_format))
+          volume_files.push_back(f->at("file").get<std::string>());
+      const std::string cs = "Editor/RaywarpImport_" + stem + ".cs";
+      write_text(root / "unity" / cs, unity_volume_script(stem, volume_files));
+      e["files"].push_back(rel("unity", cs));
+    } else {
+      missing.push_back("--format dds");
+    }
+    if (exr || png) {
+      e["formats"].push_back(exr ? "atlas-exr" : "atlas-png");
+      const std::string cs = "Editor/RaywarpAtlasImport_" + stem + ".cs";
+      write_text(root / "unity" / cs, unity_atlas_script(stem, side, texs));
+      e["files"].push_back(rel("unity", cs));
+    } else {
+      missing.push_back("--format atlas-exr");
+    }
+    std::ostringstream md;
+    md << "# Unity checklist: " << stem << "\n\n"
+       << missing_section(missing,
+                          "Unity imports no KTX2 or DDS 3D texture by itself: the volume route "
+                          "reads the DDS (or KTX2) bytes in an editor script, the atlas route "
+                          "imports a tiled image as a flipbook 3D texture; a route whose files "
+                          "are missing is left out.")
+       << "## Route 1 (exact): DDS/KTX2 -> Texture3D asset\n\n"
+       << "Copy `Editor/RaywarpImport_" << stem << ".cs` into an `Editor` folder and the files";
+    for (const std::string& f : volume_files) md << " `" << f << "`";
+    md << " into `Assets/Raywarp/" << stem << "/`; run **Tools > Raywarp > Import " << stem
+       << " volumes**. Each becomes a `Texture3D` (RGBAHalf/RHalf, or RGBAFloat/RFloat for float "
+          "storage; no mip chain; wrap Clamp; filter Bilinear, the step bounds Point; float "
+          "formats are linear, never sRGB) saved as `.asset`. Texel order is kept, so sample at "
+          "raywarp's (u, v, w) directly.\n\n"
+       << "## Route 2: tiled atlas -> flipbook 3D texture\n\n"
+       << "`Editor/RaywarpAtlasImport_" << stem
+       << ".cs` is an AssetPostprocessor: when Unity imports an atlas named there it sets "
+          "texture shape 3D, flipbook columns/rows = the sidecar's `tiles`, sRGB (Color "
+          "Texture) off, Generate Mip Maps off, compression None, Non-Power of 2 None, Max Size "
+          "16384, wrap Clamp, filter Bilinear. Put the script in place before copying the atlas "
+          "files in (or reimport them).\n\n"
+       << "**Vertical flip (decided):** Unity stores an imported image with v = 0 at its bottom "
+          "row, while raywarp's texel row j = 0 is each tile's top row. Cells are cut from the "
+          "top-left, row by row (slice z = tile (z % columns, z / columns)), as raywarp lays "
+          "them out, but within each slice Unity's v runs upwards: sample the atlas route at "
+          "(u, 1 - v, w'), w' below. The DDS route needs neither. Check both with the "
+          "orientation volume: this is the one setting here not confirmed in Unity's sources.\n\n"
+       << atlas_w_note(texs, side, "Unity's flipbook import")
+       << "The 16-bit PNG (if you use it instead of the EXR) needs compression None and format "
+          "R16/RGBA64 where your Unity version offers them; then decode lo + value * (hi - lo) "
+          "(Unity samples unorm16 as value = code / 65535).\n\n"
+       << common
+       << orientation_section(
+              "through both routes (`orientation.dds`, `orientation.exr` with "
+              "flipbook 3 x 3 for its 8 slices)",
+              "Route 1: G = v. Route 2: G = 1 - v unless you sample at 1 - v.",
+              "Route 2 has 9 slices for 8: w' = min(8 w, 7.5) / 9.");
+    write_text(root / "unity" / "CHECKLIST.md", md.str());
+    e["files"].push_back(rel("unity", "CHECKLIST.md"));
+    for (const std::string& m : missing) e["missing"].push_back(m);
+    result["engines"]["unity"] = e;
+  }
+
+  // Unreal
+  {
+    json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
+    std::vector<std::string> missing;
+    if (exr)
+      e["formats"].push_back("atlas-exr");
+    else if (png)
+      e["formats"].push_back("atlas-png");
+    else
+      missing.push_back("--format atlas-exr");
+    const std::string py = "import_" + stem + ".py";
+    write_text(root / "unreal" / py, unreal_script(stem, side, texs));
+    e["files"].push_back(rel("unreal", py));
+    std::ostringstream md;
+    md << "# Unreal Engine 5 checklist: " << stem << "\n\n"
+       << missing_section(missing,
+                          "Unreal builds a Volume Texture from a 2D atlas; the export has no "
+                          "atlas, so the script imports nothing.")
+       << "## Use\n\nEnable the Python Editor Script Plugin, then run `" << py
+       << "` (Tools > Execute Python Script). For each texture it imports the "
+       << (exr ? "OpenEXR" : "16-bit PNG")
+       << " atlas as a Texture2D with sRGB off, compression `TC_HDR` (`TC_HDR_F32` for float "
+          "storage; the atlas keeps its pixel format: RGBA16F), `TMGS_NO_MIPMAPS`, LOD group "
+          "`TEXTUREGROUP_16_BIT_DATA` (no LOD-group compression), never streamed, filter "
+          "default (nearest for the step bounds), then creates `VT_...` (a `VolumeTexture` by "
+          "`VolumeTextureFactory`) with `source2d_texture` = the atlas and "
+          "`source2d_tile_size_x/y` = the tile size:\n\n"
+       << "| texture | atlas | tiles | tile size | volume |\n| --- | --- | --- | --- | --- |\n";
+    for (const Tex& t : texs)
+      if (const json* a = atlas_of(side, t.name)) {
+        const int tx = a->at("tiles")[0].get<int>(), ty = a->at("tiles")[1].get<int>();
+        md << "| `" << t.name << "` | `" << a->at("file").get<std::string>() << "` | " << tx
+           << " x " << ty << " | " << a->at("size")[0].get<int>() / tx << " x "
+           << a->at("size")[1].get<int>() / ty << " | " << a->at("size")[0].get<int>() / tx << " x "
+           << a->at("size")[1].get<int>() / ty << " x " << tx * ty << " |\n";
+      }
+    md << "\nUnreal cuts slice z from tile (z % tiles_x, z / tiles_x), rows from the top-left: "
+          "raywarp's layout, so u and v need no flip. Interchange also reads DDS volumes "
+          "(DX10 R16G16B16A16_FLOAT): importing `"
+       << stem
+       << ".deformation.dds` directly gives the exact depth (set the same sRGB, compression, "
+          "mip and filter settings on it).\n\n"
+       << atlas_w_note(texs, side, "The VolumeTexture built from the atlas")
+       << "In a material, sample with a Texture Object + `Texture3DSample` (or a Custom node), "
+          "clamp addressing, and decode object = stored * scale per channel.\n\n"
+       << common
+       << orientation_section("as `orientation.exr` with tile size 16 x 12 (3 x 3 tiles)",
+                              "G = v (no flip).", "9 slices for 8: w' = min(8 w, 7.5) / 9.");
+    write_text(root / "unreal" / "CHECKLIST.md", md.str());
+    e["files"].push_back(rel("unreal", "CHECKLIST.md"));
+    for (const std::string& m : missing) e["missing"].push_back(m);
+    result["engines"]["unreal"] = e;
+  }
+
+  // Godot
+  {
+    json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
+    std::vector<std::string> missing;
+    if (exr) {
+      e["formats"].push_back("atlas-exr");
+      for (const Tex& t : texs)
+        if (const json* a = file_of(side, t.name, "atlas-exr")) {
+          const std::string name = a->at("file").get<std::string>() + ".import";
+          write_text(root / "godot" / name, godot_import(*a));
+          e["files"].push_back(rel("godot", name));
+        }
+    } else {
+      missing.push_back("--format atlas-exr");
+    }
+    if (dds) e["formats"].push_back("dds");
+    std::ostringstream md;
+    md << "# Godot 4 checklist: " << stem << "\n\n"
+       << missing_section(missing,
+                          "Godot's Texture3D importer cuts an image into slices; this bundle "
+                          "uses the OpenEXR atlas (Godot's PNG loader keeps 8 bits per channel, "
+                          "so the 16-bit PNG would lose its precision), and the export has none.")
+       << "## Route 1: atlas -> Texture3D (importer `3d_texture`)\n\n"
+       << "Copy each `.import` file beside its atlas image (same name plus `.import`) before "
+          "Godot scans the folder, or set the same options in the Import dock (Import As: "
+          "Texture3D): `slices/horizontal` = tiles_x, `slices/vertical` = tiles_y, "
+          "`mipmaps/generate=false` (the default is true: it must be off), `compress/mode=0` "
+          "(Lossless: a half/float image is stored VRAM Uncompressed, unchanged), "
+          "`compress/hdr_compression=0`, `compress/channel_pack=1` (Optimized).\n\n"
+       << "| texture | atlas | slices/horizontal | slices/vertical |\n| --- | --- | --- | --- |\n";
+    for (const Tex& t : texs)
+      if (const json* a = file_of(side, t.name, "atlas-exr"))
+        md << "| `" << t.name << "` | `" << a->at("file").get<std::string>() << "` | "
+           << num(a->at("tiles")[0]) << " | " << num(a->at("tiles")[1]) << " |\n";
+    md << "\nGodot cuts slices row by row from the top-left (slice z = tile (z % h, z / h)): "
+          "raywarp's layout, no flip.\n\n"
+       << atlas_w_note(texs, side, "Godot's importer")
+       << "## Route 2: DDS (Godot 4.4 and later)\n\n"
+       << (dds ? "The `.dds` files (DDSCAPS2_VOLUME, DXGI R16G16B16A16_FLOAT / R16_FLOAT) load "
+                 "directly as a 3D texture from Godot 4.4: drop them in the project and "
+                 "`load(\"res://...dds\")`; their depth is exact (no empty slices)."
+               : "Add `--format dds` for volumes Godot 4.4+ loads directly.")
+       << "\n\nIn a shader: `uniform sampler3D raywarp_deformation : filter_linear, "
+          "repeat_disable;` (`filter_nearest` for the step bounds), read "
+          "`texture(raywarp_deformation, uvw).xyz * h` with h the half extents (the scale), "
+          "`.w` the validity.\n\n"
+       << common
+       << orientation_section("as `orientation.exr` with slices 3 x 3 (and `orientation.dds`)",
+                              "G = v (no flip).",
+                              "The atlas route has 9 slices for 8: w' = min(8 w, 7.5) / 9.");
+    write_text(root / "godot" / "CHECKLIST.md", md.str());
+    e["files"].push_back(rel("godot", "CHECKLIST.md"));
+    for (const std::string& m : missing) e["missing"].push_back(m);
+    result["engines"]["godot"] = e;
+  }
+  return result;
+}
+
+}  // namespace raywarp
