@@ -319,7 +319,11 @@ void write_contact_sheet(const fs::path& file, const fs::path& out,
           sheet.rgba[(size_t(sy) * sheet.width + sx) * 4 + k] =
               thumb.rgba[(size_t(y) * thumb.width + x) * 4 + k];
       }
-    draw_text(sheet, cx + 4, cy + side + 6, name, 2, 40);
+    // The name, shortened with ".." to the cell's width (stb_easy_font: about 6 units a letter).
+    std::string label = name;
+    while (label.size() > 3 && stb_easy_font_width(label.data()) * 2 > side - 8)
+      label = label.substr(0, label.size() - 3) + "..";
+    draw_text(sheet, cx + 4, cy + side + 6, label, 2, 40);
   }
   write_png(file.string(), sheet);
 }

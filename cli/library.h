@@ -3,7 +3,7 @@
 // shaders and a thumbnail, an index (JSON), a contact sheet and the browser viewer beside it.
 //
 // Layout of OUT (docs/export.md#libraries):
-//   index.json                 every complete entry, sorted by name
+//   index.json                 every complete entry, in the input's order
 //   contact_sheet.png          one thumbnail per entry, named
 //   viewer/                    the static WebGL2 viewer (reads ../index.json)
 //   meshes/HASH.bin            each mesh the entries use, once (write_mesh_bin)

@@ -177,5 +177,37 @@ TEST_F(LibraryTest, ABrokenEntryDoesNotStopTheOthers) {
   EXPECT_TRUE(hidden(out / "entries").empty());
 }
 
+TEST_F(LibraryTest, APresetsFileBuildsOneEntryPerPreset) {
+  // examples/presets/probe_twists.json: five presets on the probe mesh; its mesh and camera are
+  // relative to the presets file, which stays where it is.
+  const fs::path presets = fs::path(RAYWARP_SOURCE_DIR) / "examples/presets/probe_twists.json";
+  const fs::path out = dir_ / "presets";
+  const CommandResult r =
+      shell(std::string(RAYWARP_BINARY) + " library " + presets.string() + " --out " +
+            out.string() + " --cache-dir " + (dir_ / "cache").string() + " --thumbnail-size 64");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json index = read_json(out / "index.json");
+  ASSERT_EQ(index["entries"].size(), 5u);
+  EXPECT_EQ(index["entries"][0]["name"], "twist_090");  // in the file's order
+  EXPECT_EQ(index["entries"][3]["name"], "taper_top");
+  EXPECT_EQ(index["entries"][4]["name"], "wedge_cut");
+  // Each preset's box is the file's box with the preset's fields over it.
+  const nlohmann::json side = read_json(out / index["entries"][4]["boxes"][0].get<std::string>());
+  EXPECT_EQ(side["deformer"]["type"], "box_cut");
+  EXPECT_EQ(side["render"]["cut_mode"], "hollow");
+  EXPECT_NEAR(side["box"]["half_extents"][1].get<double>(), 1.4, 1e-12);
+
+  // A preset with no name is refused, naming the field.
+  std::ofstream(dir_ / "bad_presets.json")
+      << R"({"mesh": "m.ply", "camera": "c.json", "box": {}, "presets": [{"deformer": {}}]})";
+  const CommandResult bad =
+      shell(std::string(RAYWARP_BINARY) + " library " + (dir_ / "bad_presets.json").string() +
+            " --out " + (dir_ / "bad_out").string());
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("bad_presets.json: presets[0].name: missing"), std::string::npos)
+      << bad.output;
+  EXPECT_FALSE(fs::exists(dir_ / "bad_out"));
+}
+
 }  // namespace
 }  // namespace raywarp
