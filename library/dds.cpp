@@ -50,17 +50,6 @@ constexpr std::array<Format, 6> kFormats = {{
 // (D3DFMT names list channels from the most significant bits, so D3DFMT_A16B16G16R16F has R in
 // the lowest bytes: the same memory order as DXGI's R16G16B16A16.)
 
-int type_size(Storage s) { return s == Storage::Half ? 2 : 4; }
-
-void put_u32(std::vector<std::uint8_t>& out, size_t at, std::uint32_t v) {
-  for (int b = 0; b < 4; ++b) out[at + b] = static_cast<std::uint8_t>(v >> (8 * b));
-}
-std::uint32_t get_u32(const std::vector<std::uint8_t>& in, size_t at) {
-  std::uint32_t v = 0;
-  for (int b = 0; b < 4; ++b) v |= std::uint32_t{in[at + b]} << (8 * b);
-  return v;
-}
-
 }  // namespace
 
 std::vector<std::uint8_t> encode_dds(const TextureVolume& v, Storage s, DdsHeader form) {
@@ -79,7 +68,7 @@ std::vector<std::uint8_t> encode_dds(const TextureVolume& v, Storage s, DdsHeade
   const Format* format = nullptr;
   for (const Format& f : kFormats)
     if (f.channels == v.channels && f.storage == s) format = &f;
-  const size_t texel_bytes = static_cast<size_t>(v.channels * type_size(s));
+  const size_t texel_bytes = static_cast<size_t>(v.channels * storage_bytes(s));
   const std::uint64_t data_bytes = v.texels() * texel_bytes;
   if (data_bytes > kMaxBytes)
     throw Error(label + ": " + std::to_string(data_bytes) +
@@ -109,17 +98,7 @@ std::vector<std::uint8_t> encode_dds(const TextureVolume& v, Storage s, DdsHeade
     put_u32(out, kArraySize, 1);  // must be 1 for a 3D texture
     put_u32(out, kMiscFlags2, kAlphaModeCustom);
   }
-  std::uint8_t* texels = out.data() + data_offset;
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    if (s == Storage::Half) {
-      const std::uint16_t h = float_to_half_bits(v.values[i]);
-      texels[2 * i] = static_cast<std::uint8_t>(h);
-      texels[2 * i + 1] = static_cast<std::uint8_t>(h >> 8);
-    } else {
-      const std::uint32_t f = std::bit_cast<std::uint32_t>(v.values[i]);
-      for (int b = 0; b < 4; ++b) texels[4 * i + b] = static_cast<std::uint8_t>(f >> (8 * b));
-    }
-  }
+  pack_texels(v.values, s, out.data() + data_offset);
   return out;
 }
 
@@ -181,7 +160,7 @@ TextureVolume decode_dds(const std::vector<std::uint8_t>& bytes, const std::stri
   if ((flags & kDdsdMipMapCount) && mips > 1)
     throw fail("mipMapCount " + std::to_string(mips) + ": only 1 (no mipmaps) is read");
 
-  const size_t texel_bytes = static_cast<size_t>(format->channels * type_size(format->storage));
+  const size_t texel_bytes = static_cast<size_t>(format->channels * storage_bytes(format->storage));
   std::uint64_t texels = width;
   for (std::uint64_t n : {std::uint64_t{height}, std::uint64_t{depth}}) {
     texels *= n;
@@ -202,16 +181,7 @@ TextureVolume decode_dds(const std::vector<std::uint8_t>& bytes, const std::stri
       Eigen::Vector3i(static_cast<int>(width), static_cast<int>(height), static_cast<int>(depth));
   v.channels = format->channels;
   v.values.resize(texels * static_cast<size_t>(format->channels));
-  const std::uint8_t* p = bytes.data() + data_offset;
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    if (format->storage == Storage::Half) {
-      v.values[i] = half_bits_to_float(static_cast<std::uint16_t>(p[2 * i] | (p[2 * i + 1] << 8)));
-    } else {
-      std::uint32_t f = 0;
-      for (int b = 0; b < 4; ++b) f |= std::uint32_t{p[4 * i + b]} << (8 * b);
-      v.values[i] = std::bit_cast<float>(f);
-    }
-  }
+  unpack_texels(bytes.data() + data_offset, format->storage, v.values);
   if (storage) *storage = format->storage;
   return v;
 }

@@ -61,24 +61,6 @@ constexpr const char* kOrientationKey = "KTXorientation";
 // texel of the data is the top-left-front one (the spec's default order of the level data).
 constexpr const char* kOrientation = "rdi";
 
-int type_size(Storage s) { return s == Storage::Half ? 2 : 4; }
-
-void put_u32(std::vector<std::uint8_t>& out, size_t at, std::uint32_t v) {
-  for (int b = 0; b < 4; ++b) out[at + b] = static_cast<std::uint8_t>(v >> (8 * b));
-}
-void put_u64(std::vector<std::uint8_t>& out, size_t at, std::uint64_t v) {
-  for (int b = 0; b < 8; ++b) out[at + b] = static_cast<std::uint8_t>(v >> (8 * b));
-}
-std::uint32_t get_u32(const std::vector<std::uint8_t>& in, size_t at) {
-  std::uint32_t v = 0;
-  for (int b = 0; b < 4; ++b) v |= std::uint32_t{in[at + b]} << (8 * b);
-  return v;
-}
-std::uint64_t get_u64(const std::vector<std::uint8_t>& in, size_t at) {
-  std::uint64_t v = 0;
-  for (int b = 0; b < 8; ++b) v |= std::uint64_t{in[at + b]} << (8 * b);
-  return v;
-}
 size_t align_up(size_t n, size_t a) { return (n + a - 1) / a * a; }
 
 std::string volume_label(const TextureVolume& v) {
@@ -139,7 +121,7 @@ std::vector<std::uint8_t> encode_ktx2(
   const Format* format = nullptr;
   for (const Format& f : kFormats)
     if (f.channels == v.channels && f.storage == s) format = &f;
-  const size_t texel_bytes = static_cast<size_t>(v.channels * type_size(s));
+  const size_t texel_bytes = static_cast<size_t>(v.channels * storage_bytes(s));
   const std::uint64_t level_bytes = v.texels() * texel_bytes;
   if (level_bytes > kMaxLevelBytes)
     throw Error(label + ": " + std::to_string(level_bytes) +
@@ -169,7 +151,7 @@ std::vector<std::uint8_t> encode_ktx2(
   if (!seen.count(kWriterKey)) kv.emplace_back(kWriterKey, std::string("raywarp ") + kVersion);
   std::sort(kv.begin(), kv.end());  // std::string compares as unsigned bytes (char_traits<char>)
 
-  const std::vector<std::uint32_t> dfd = basic_dfd(v.channels, type_size(s));
+  const std::vector<std::uint32_t> dfd = basic_dfd(v.channels, storage_bytes(s));
   const size_t dfd_offset = kLevelIndexOffset + kLevelIndexEntry;  // one level
   const size_t dfd_length = 4 * dfd.size();
   const size_t kvd_offset = dfd_offset + dfd_length;
@@ -184,14 +166,14 @@ std::vector<std::uint8_t> encode_ktx2(
   std::vector<std::uint8_t> out(level_offset + level_bytes, 0);
   std::copy(kIdentifier.begin(), kIdentifier.end(), out.begin());
   put_u32(out, 12, format->vk_format);
-  put_u32(out, 16, static_cast<std::uint32_t>(type_size(s)));  // typeSize
-  put_u32(out, 20, static_cast<std::uint32_t>(v.dims.x()));    // pixelWidth
-  put_u32(out, 24, static_cast<std::uint32_t>(v.dims.y()));    // pixelHeight
-  put_u32(out, 28, static_cast<std::uint32_t>(v.dims.z()));    // pixelDepth (> 0: 3D)
-  put_u32(out, 32, 0);                                         // layerCount (0: not an array)
-  put_u32(out, 36, 1);                                         // faceCount
-  put_u32(out, 40, 1);                                         // levelCount (no mipmaps)
-  put_u32(out, 44, 0);                                         // supercompressionScheme none
+  put_u32(out, 16, static_cast<std::uint32_t>(storage_bytes(s)));  // typeSize
+  put_u32(out, 20, static_cast<std::uint32_t>(v.dims.x()));        // pixelWidth
+  put_u32(out, 24, static_cast<std::uint32_t>(v.dims.y()));        // pixelHeight
+  put_u32(out, 28, static_cast<std::uint32_t>(v.dims.z()));        // pixelDepth (> 0: 3D)
+  put_u32(out, 32, 0);                                             // layerCount (0: not an array)
+  put_u32(out, 36, 1);                                             // faceCount
+  put_u32(out, 40, 1);                                             // levelCount (no mipmaps)
+  put_u32(out, 44, 0);                                             // supercompressionScheme none
   put_u32(out, 48, static_cast<std::uint32_t>(dfd_offset));
   put_u32(out, 52, static_cast<std::uint32_t>(dfd_length));
   put_u32(out, 56, static_cast<std::uint32_t>(kvd_offset));
@@ -212,17 +194,7 @@ std::vector<std::uint8_t> encode_ktx2(
     std::memcpy(out.data() + at + 4 + key.size() + 1, value.data(), value.size());
     at += align_up(4 + length, 4);
   }
-  std::uint8_t* texels = out.data() + level_offset;
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    if (s == Storage::Half) {
-      const std::uint16_t h = float_to_half_bits(v.values[i]);
-      texels[2 * i] = static_cast<std::uint8_t>(h);
-      texels[2 * i + 1] = static_cast<std::uint8_t>(h >> 8);
-    } else {
-      const std::uint32_t f = std::bit_cast<std::uint32_t>(v.values[i]);
-      for (int b = 0; b < 4; ++b) texels[4 * i + b] = static_cast<std::uint8_t>(f >> (8 * b));
-    }
-  }
+  pack_texels(v.values, s, out.data() + level_offset);
   return out;
 }
 
@@ -242,7 +214,7 @@ Ktx2File decode_ktx2(const std::vector<std::uint8_t>& bytes, const std::string& 
     throw fail("vkFormat " + std::to_string(vk_format) +
                ": only R16_SFLOAT (76), R16G16_SFLOAT (83), R16G16B16A16_SFLOAT (97), R32_SFLOAT "
                "(100), R32G32_SFLOAT (103) and R32G32B32A32_SFLOAT (109) are read");
-  const int bytes_per_channel = type_size(format->storage);
+  const int bytes_per_channel = storage_bytes(format->storage);
   const std::uint32_t type_size_field = get_u32(bytes, 16);
   if (type_size_field != static_cast<std::uint32_t>(bytes_per_channel))
     throw fail("typeSize " + std::to_string(type_size_field) + ": must be " +
@@ -363,16 +335,7 @@ Ktx2File decode_ktx2(const std::vector<std::uint8_t>& bytes, const std::string& 
       Eigen::Vector3i(static_cast<int>(width), static_cast<int>(height), static_cast<int>(depth));
   v.channels = format->channels;
   v.values.resize(texels * static_cast<size_t>(format->channels));
-  const std::uint8_t* p = bytes.data() + level_offset;
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    if (format->storage == Storage::Half) {
-      v.values[i] = half_bits_to_float(static_cast<std::uint16_t>(p[2 * i] | (p[2 * i + 1] << 8)));
-    } else {
-      std::uint32_t f = 0;
-      for (int b = 0; b < 4; ++b) f |= std::uint32_t{p[4 * i + b]} << (8 * b);
-      v.values[i] = std::bit_cast<float>(f);
-    }
-  }
+  unpack_texels(bytes.data() + level_offset, format->storage, v.values);
   return file;
 }
 

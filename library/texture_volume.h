@@ -41,4 +41,16 @@ struct TextureVolume {
 std::uint16_t float_to_half_bits(float x);
 float half_bits_to_float(std::uint16_t h);
 
+// What the binary formats (KTX2, DDS) share. Bytes per channel of a storage: 2 or 4.
+int storage_bytes(Storage storage);
+// `values` as a format stores them, little-endian, storage_bytes(storage) each, into `out`.
+void pack_texels(const std::vector<float>& values, Storage storage, std::uint8_t* out);
+// Back: values.size() values from `in`.
+void unpack_texels(const std::uint8_t* in, Storage storage, std::vector<float>& values);
+// Little-endian unsigned integers at byte `at` of a buffer (the caller checks the bounds).
+void put_u32(std::vector<std::uint8_t>& out, size_t at, std::uint32_t v);
+void put_u64(std::vector<std::uint8_t>& out, size_t at, std::uint64_t v);
+std::uint32_t get_u32(const std::vector<std::uint8_t>& in, size_t at);
+std::uint64_t get_u64(const std::vector<std::uint8_t>& in, size_t at);
+
 }  // namespace raywarp
