@@ -38,6 +38,9 @@ nlohmann::json matrix(const Eigen::MatrixXd& m) {
 
 // The smallest half at or above x (bounds must never be quantised downwards).
 float half_at_or_above(float x) {
+  if (!(x <= 65504.0f))
+    throw Error("a step bound of " + std::to_string(x) +
+                " exceeds the largest half float (65504); export with --float");
   float h = half_bits_to_float(float_to_half_bits(x));
   if (h >= x) return h;
   const std::uint16_t bits = float_to_half_bits(x);
@@ -358,7 +361,9 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   if (!tex.step_bounds.empty())
     side["render"]["step_bounds"] = {
         {"brick_cells", tex.step_bounds.brick_cells},
-        {"sdf_lipschitz", tex.step_bounds.sdf_lipschitz},
+        {"sdf_lipschitz", std::isfinite(tex.step_bounds.sdf_lipschitz)
+                              ? tex.step_bounds.sdf_lipschitz
+                              : -1.0},  // -1: unknown
         {"validity_lipschitz_box_units", tex.step_bounds.validity_lipschitz * h.maxCoeff()}};
   const Eigen::AlignedBox3d region = ray_cast_region(tex);
   side["render"]["ray_cast_region"] = {{"min", vec(region.min().cwiseQuotient(h))},
@@ -604,6 +609,9 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
                     std::to_string(v.channels) + " texels, the sidecar says " +
                     t.at("dims").dump() + "x" + std::to_string(channels));
       const std::vector<double> scale = t.at("scale").get<std::vector<double>>();
+      if (scale.size() != static_cast<size_t>(channels))
+        throw Error(where + ": textures." + name + ".scale: " + std::to_string(channels) +
+                    " numbers expected");
       const Eigen::Vector3d origin = v3(t.at("region").at("min")).cwiseProduct(h);
       const Eigen::Vector3d upper = v3(t.at("region").at("max")).cwiseProduct(h);
       Grid3<Eigen::Vector4f> g(origin, (upper - origin).cwiseQuotient(dims.cast<double>()), dims,
@@ -612,7 +620,7 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
         for (int j = 0; j < dims.y(); ++j)
           for (int i = 0; i < dims.x(); ++i)
             for (int c = 0; c < channels; ++c) {
-              const float x = static_cast<float>(v.at(i, j, k, c) * scale.at(c));
+              const float x = static_cast<float>(v.at(i, j, k, c) * scale[c]);
               if (!std::isfinite(x)) throw Error(path.string() + ": a texel is not finite");
               g.at(i, j, k)[c] = x;
             }
@@ -635,7 +643,9 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
       tex.step_bounds.bricks = scalar("step_bounds_d");
       tex.step_bounds.sdf_bricks = scalar("step_bounds_sdf");
       tex.step_bounds.brick_cells = sb.at("brick_cells").get<int>();
-      tex.step_bounds.sdf_lipschitz = sb.at("sdf_lipschitz").get<double>();
+      const double sdf_lipschitz = sb.at("sdf_lipschitz").get<double>();
+      tex.step_bounds.sdf_lipschitz =
+          sdf_lipschitz < 0 ? std::numeric_limits<double>::infinity() : sdf_lipschitz;
       tex.step_bounds.validity_lipschitz =
           sb.at("validity_lipschitz_box_units").get<double>() / h.maxCoeff();
     }
