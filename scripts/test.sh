@@ -10,9 +10,9 @@ shift || true
 # The export tests read the files back with readers that are not raywarp's: ImageMagick (16-bit
 # PNG), nvddsinfo (DDS), vdb_print and pyopenvdb (OpenVDB), the npm package ktx-parse under
 # Node.js (KTX2), and GNU parallel runs a library's jobs; the library's browser viewer is checked in
-# Debian's headless Chromium, and the exported shaders by glslangValidator.
+# Debian's headless Chromium, the exported shaders by glslangValidator, the Unity scripts by mcs.
 extra="xvfb xdotool imagemagick libnvtt-bin libopenvdb-tools python3-openvdb parallel chromium"
-extra="$extra glslang-tools"
+extra="$extra glslang-tools mono-mcs"
 # A machine that has Node.js from elsewhere keeps it (Debian's npm conflicts with such a node).
 command -v node >/dev/null 2>&1 || extra="$extra nodejs"
 command -v npm >/dev/null 2>&1 || extra="$extra npm"
