@@ -23,13 +23,16 @@
 //   (h, springs, masses, pins), cached). Its minimiser is the fully implicit Euler step with
 //   Damping::relative; v' = (x' - x_n) / h. Damping::along_spring with kd != 0 is refused.
 //
-// Every integrator: pinned nodes keep their position and get zero velocity; everything runs on
-// one thread in a fixed order, so two runs give identical bytes. Integrator::step checks the new
+// Every integrator: pinned nodes keep their position and get zero velocity. Work is spread over
+// TBB's threads (systems of 4096 nodes or more) only as gathers by node or block row and sums in
+// fixed chunks (physics/parallel.h), so two runs give identical bytes for any thread count.
+// Implicit Euler keeps its matrix pattern (3 x 3 blocks over the free nodes) between steps and
+// refills it; local/global orders its matrix by nested dissection, factorises it once per setting
+// and solves x, y and z together in one pass over the factor. Integrator::step checks the new
 // state: a non-finite value or a total energy above `energy_bound` leaves the system as it was
 // before the step and returns a status naming the step; a solve that stops at its iteration cap
 // is reported in StepResult (hit_cap), never silently.
 #pragma once
-#include <Eigen/SparseCholesky>
 #include <limits>
 #include <memory>
 #include <string>
@@ -38,6 +41,29 @@
 #include "physics/mass_spring.h"
 
 namespace raywarp::physics {
+
+namespace detail {
+struct ImplicitWork;
+struct LocalGlobalWork;
+struct LdltFactor;
+// Scratch and cached structure an integrator keeps between steps. A copy of the integrator starts
+// without (its first step builds its own), so copies never share buffers.
+template <class T>
+class Scratch {
+ public:
+  Scratch() = default;
+  Scratch(const Scratch&) {}
+  Scratch& operator=(const Scratch&) {
+    p_.reset();
+    return *this;
+  }
+  T& get();  // creates it on first use (defined where T is complete)
+  bool empty() const { return !p_; }
+
+ private:
+  std::shared_ptr<T> p_;
+};
+}  // namespace detail
 
 enum class StepStatus { ok, non_finite, energy_above_bound, solver_failed };
 
@@ -72,10 +98,15 @@ class Integrator {
 
  protected:
   virtual void advance(MassSpring& system, double h, StepResult& result) = 0;
+
+ private:
+  Vector x0_, v0_;  // the state before the step, restored on failure
 };
 
 // a = M⁻¹ f(x, v), zero on pinned nodes.
 Vector accelerations(const MassSpring& system, const Vector& x, const Vector& v);
+// The same into `a` (no allocation when it has the size already).
+void accelerations(const MassSpring& system, const Vector& x, const Vector& v, Vector& a);
 
 class ExplicitEuler : public Integrator {
  public:
@@ -83,6 +114,9 @@ class ExplicitEuler : public Integrator {
 
  protected:
   void advance(MassSpring& system, double h, StepResult& result) override;
+
+ private:
+  Vector a_;
 };
 
 class Verlet : public Integrator {
@@ -98,6 +132,7 @@ class Verlet : public Integrator {
   double h_ = 0;
   Vector x_prev_;
   Vector x_last_;  // the positions this integrator left, to notice a caller's change
+  Vector a_, x_new_;
 };
 
 class VelocityVerlet : public Integrator {
@@ -106,6 +141,9 @@ class VelocityVerlet : public Integrator {
 
  protected:
   void advance(MassSpring& system, double h, StepResult& result) override;
+
+ private:
+  Vector a_, v_half_;
 };
 
 class ImplicitEuler : public Integrator {
@@ -120,6 +158,9 @@ class ImplicitEuler : public Integrator {
 
  protected:
   void advance(MassSpring& system, double h, StepResult& result) override;
+
+ private:
+  detail::Scratch<detail::ImplicitWork> work_;
 };
 
 class LocalGlobal : public Integrator {
@@ -131,6 +172,11 @@ class LocalGlobal : public Integrator {
 
   // Sparse LDLᵀ factorisations done so far (one per new set of h, springs, masses, pins).
   long factorizations() const { return factorizations_; }
+  // Factorises for `system` and h now if the next step would (a new set of h, springs, masses or
+  // pins), so that a caller can time or schedule it apart; returns whether it factorised.
+  bool prepare(const MassSpring& system, double h);
+  // Entries of the factor's L below the diagonal (its fill); 0 before the first factorisation.
+  long factor_nonzeros() const;
   // g(x) for the step from (x_n, v_n) of `system`'s masses, springs, pins and gravity (see
   // above; pinned nodes' inertia, a constant, left out).
   double objective(const MassSpring& system, const Vector& x_n, const Vector& v_n, const Vector& x,
@@ -153,7 +199,8 @@ class LocalGlobal : public Integrator {
   bool have_factor_ = false;
   Key key_;
   std::vector<int> free_index_;  // node -> row of the reduced system, -1 if pinned
-  std::unique_ptr<Eigen::SimplicialLDLT<SparseMatrix>> factor_;
+  std::shared_ptr<const detail::LdltFactor> factor_;  // immutable once built; copies share it
+  detail::Scratch<detail::LocalGlobalWork> work_;
 };
 
 }  // namespace raywarp::physics

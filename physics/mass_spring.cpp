@@ -1,9 +1,11 @@
 #include "physics/mass_spring.h"
 
+#include <atomic>
 #include <cmath>
 #include <string>
 
 #include "base/error.h"
+#include "physics/parallel.h"
 
 namespace raywarp::physics {
 
@@ -83,43 +85,161 @@ void MassSpring::move_pinned(const std::vector<int>& which,
   }
 }
 
-Vector MassSpring::forces(const Vector& xs, const Vector& vs) const {
-  int n = nodes();
-  Vector f(3 * n);
-  for (int i = 0; i < n; ++i) f.segment<3>(3 * i) = mass[i] * gravity;
+SpringAdjacency spring_adjacency(int n, const std::vector<Spring>& springs) {
+  SpringAdjacency a;
+  a.nodes = n;
+  a.start.assign(static_cast<size_t>(n) + 1, 0);
   for (const Spring& s : springs) {
-    Eigen::Vector3d d = xs.segment<3>(3 * s.i) - xs.segment<3>(3 * s.j);
-    Eigen::Vector3d dv = vs.segment<3>(3 * s.i) - vs.segment<3>(3 * s.j);
-    double l = d.norm();
-    Eigen::Vector3d fi = Eigen::Vector3d::Zero();
-    Eigen::Vector3d u = Eigen::Vector3d::Zero();
-    if (l > 0) {
-      u = d / l;
-      fi = -s.ks * (l - s.rest) * u;
-    }
-    if (s.kd != 0) {
-      if (damping == Damping::relative) {
-        fi -= s.kd * dv;
-      } else {
-        fi -= s.kd * u.dot(dv) * u;
-      }
-    }
-    f.segment<3>(3 * s.i) += fi;
-    f.segment<3>(3 * s.j) -= fi;
+    a.start[s.i + 1] += 1;
+    a.start[s.j + 1] += 1;
   }
+  for (int i = 0; i < n; ++i) a.start[i + 1] += a.start[i];
+  a.spring.resize(2 * springs.size());
+  a.other.resize(2 * springs.size());
+  a.first.resize(2 * springs.size());
+  a.ends.resize(springs.size());
+  std::vector<int> fill(a.start.begin(), a.start.end() - 1);
+  // Springs in increasing index, so each node's list is increasing too.
+  for (size_t k = 0; k < springs.size(); ++k) {
+    const Spring& s = springs[k];
+    a.ends[k] = {s.i, s.j};
+    a.spring[fill[s.i]] = static_cast<int>(k);
+    a.first[fill[s.i]] = 1;
+    a.other[fill[s.i]++] = s.j;
+    a.spring[fill[s.j]] = static_cast<int>(k);
+    a.first[fill[s.j]] = 0;
+    a.other[fill[s.j]++] = s.i;
+  }
+  return a;
+}
+
+bool MassSpring::adjacency_matches(const SpringAdjacency& a) const {
+  if (a.nodes != nodes() || a.ends.size() != springs.size()) return false;
+  for (size_t k = 0; k < springs.size(); ++k) {
+    if (a.ends[k][0] != springs[k].i || a.ends[k][1] != springs[k].j) return false;
+  }
+  return true;
+}
+
+std::shared_ptr<const SpringAdjacency> MassSpring::adjacency() const {
+  std::shared_ptr<const SpringAdjacency> a = adjacency_.get();
+  if (a && adjacency_matches(*a)) return a;
+  a = std::make_shared<const SpringAdjacency>(spring_adjacency(nodes(), springs));
+  adjacency_.set(a);
+  return a;
+}
+
+namespace {
+
+// Spring s's force on its end i: f_i = -ks (l - L) u - damping (mass_spring.h); f_j = -f_i.
+inline Eigen::Vector3d spring_force(const Spring& sp, Damping damping, const Vector& xs,
+                                    const Vector& vs) {
+  Eigen::Vector3d d = xs.segment<3>(3 * sp.i) - xs.segment<3>(3 * sp.j);
+  double l = d.norm();
+  Eigen::Vector3d fi = Eigen::Vector3d::Zero();
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  if (l > 0) {
+    u = d / l;
+    fi = -sp.ks * (l - sp.rest) * u;
+  }
+  if (sp.kd != 0) {
+    Eigen::Vector3d dv = vs.segment<3>(3 * sp.i) - vs.segment<3>(3 * sp.j);
+    if (damping == Damping::relative) {
+      fi -= sp.kd * dv;
+    } else {
+      fi -= sp.kd * u.dot(dv) * u;
+    }
+  }
+  return fi;
+}
+
+}  // namespace
+
+// Two passes: each spring's f_i once (in parallel over springs), then each node's sum over its
+// springs in increasing index, f_i added at i and subtracted at j: the bits of the serial loop
+// f[i] += f_i, f[j] -= f_i over the springs.
+void MassSpring::forces(const Vector& xs, const Vector& vs, Vector& f, bool per_mass) const {
+  const int n = nodes();
+  if (xs.size() != 3 * n || vs.size() != 3 * n) {
+    throw Error("physics: forces: x and v must have 3 n = " + std::to_string(3 * n) + " entries");
+  }
+  f.resize(3 * n);
+  std::shared_ptr<const SpringAdjacency> a = adjacency_.get();
+  const std::ptrdiff_t m = static_cast<std::ptrdiff_t>(springs.size());
+  if (!a || a->nodes != n || static_cast<std::ptrdiff_t>(a->ends.size()) != m) a = adjacency();
+  std::unique_ptr<double[]> per_spring(new double[3 * static_cast<size_t>(m) + 1]);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    std::atomic<bool> stale{false};
+    detail::for_each_index(m, 1024, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
+      bool same = true;
+      for (std::ptrdiff_t k = b; k < e; ++k) {
+        const Spring& sp = springs[k];
+        same = same && a->ends[k][0] == sp.i && a->ends[k][1] == sp.j;
+        Eigen::Map<Eigen::Vector3d>(per_spring.get() + 3 * k) = spring_force(sp, damping, xs, vs);
+      }
+      if (!same) stale = true;
+    });
+    if (stale) {
+      a = adjacency();  // rebuilt: the springs' ends changed
+      continue;
+    }
+    const double* fs = per_spring.get();
+    detail::for_each_index(n, 256, [&](std::ptrdiff_t b, std::ptrdiff_t e) {
+      for (std::ptrdiff_t i = b; i < e; ++i) {
+        Eigen::Vector3d fi = mass[i] * gravity;
+        for (int k = a->start[i]; k < a->start[i + 1]; ++k) {
+          const double* g = fs + 3 * static_cast<std::ptrdiff_t>(a->spring[k]);
+          if (a->first[k]) {
+            fi += Eigen::Vector3d(g[0], g[1], g[2]);
+          } else {
+            fi -= Eigen::Vector3d(g[0], g[1], g[2]);
+          }
+        }
+        if (per_mass) {
+          if (pinned[i]) {
+            fi.setZero();
+          } else {
+            fi /= mass[i];
+          }
+        }
+        f.segment<3>(3 * i) = fi;
+      }
+    });
+    return;
+  }
+  throw Error("physics: forces: the spring adjacency does not match the springs");
+}
+
+Vector MassSpring::forces(const Vector& xs, const Vector& vs) const {
+  Vector f;
+  forces(xs, vs, f);
   return f;
 }
 
 Energy MassSpring::energy(const Vector& xs, const Vector& vs) const {
   Energy e;
-  for (int i = 0; i < nodes(); ++i) {
-    e.kinetic += 0.5 * mass[i] * vs.segment<3>(3 * i).squaredNorm();
-    e.gravity -= mass[i] * gravity.dot(xs.segment<3>(3 * i));
-  }
-  for (const Spring& s : springs) {
-    double stretch = (xs.segment<3>(3 * s.i) - xs.segment<3>(3 * s.j)).norm() - s.rest;
-    e.spring += 0.5 * s.ks * stretch * stretch;
-  }
+  const std::ptrdiff_t n = nodes();
+  e.kinetic = detail::chunked_sum(n, [&](std::ptrdiff_t b, std::ptrdiff_t end) {
+    double k = 0;
+    for (std::ptrdiff_t i = b; i < end; ++i)
+      k += 0.5 * mass[i] * vs.segment<3>(3 * i).squaredNorm();
+    return k;
+  });
+  e.gravity = detail::chunked_sum(n, [&](std::ptrdiff_t b, std::ptrdiff_t end) {
+    double g = 0;
+    for (std::ptrdiff_t i = b; i < end; ++i) g -= mass[i] * gravity.dot(xs.segment<3>(3 * i));
+    return g;
+  });
+  e.spring = detail::chunked_sum(
+      static_cast<std::ptrdiff_t>(springs.size()), [&](std::ptrdiff_t b, std::ptrdiff_t end) {
+        double sum = 0;
+        for (std::ptrdiff_t k = b; k < end; ++k) {
+          const Spring& s = springs[k];
+          double stretch = (xs.segment<3>(3 * s.i) - xs.segment<3>(3 * s.j)).norm() - s.rest;
+          sum += 0.5 * s.ks * stretch * stretch;
+        }
+        return sum;
+      });
   return e;
 }
 

@@ -221,4 +221,26 @@ GridModel grid_model(const Grid3<std::uint8_t>& mask, double density, double ks,
   return g;
 }
 
+Grid3<std::uint8_t> ellipsoid_mask(const Eigen::Vector3d& semi_axes, double spacing) {
+  if (!(semi_axes.array() > 0).all() || !semi_axes.allFinite() || !(spacing > 0) ||
+      !std::isfinite(spacing)) {
+    throw Error("physics: ellipsoid_mask: semi-axes and spacing must be finite and > 0");
+  }
+  // Samples at (i - (n - 1)/2) spacing, symmetric about the origin; n odd, one sample past the
+  // ellipsoid on each side.
+  Eigen::Vector3i dims;
+  for (int a = 0; a < 3; ++a) dims[a] = 2 * static_cast<int>(std::ceil(semi_axes[a] / spacing)) + 3;
+  Eigen::Vector3d origin = -0.5 * spacing * dims.cast<double>();
+  Grid3<std::uint8_t> mask(origin, spacing, dims, 0);
+  for (int k = 0; k < dims.z(); ++k) {
+    for (int j = 0; j < dims.y(); ++j) {
+      for (int i = 0; i < dims.x(); ++i) {
+        Eigen::Vector3d p = mask.texel_centre(i, j, k).cwiseQuotient(semi_axes);
+        mask.at(i, j, k) = p.squaredNorm() <= 1.0 ? 1 : 0;
+      }
+    }
+  }
+  return mask;
+}
+
 }  // namespace raywarp::physics

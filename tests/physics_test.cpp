@@ -2,6 +2,7 @@
 // on a linear spring, their stability and conservation on a tetrahedral bar, local/global against
 // implicit Euler, the tetrahedralisation and the grid model (docs/physics.md).
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
@@ -17,6 +18,7 @@
 #include "physics/integrators.h"
 #include "physics/mass_spring.h"
 #include "physics/models.h"
+#include "physics/spectrum.h"
 
 namespace raywarp::physics {
 namespace {
@@ -233,7 +235,7 @@ void pin_end(MassSpring& s) {
 }
 
 // ω_max² = the largest eigenvalue of M⁻¹ K, K = -∂f/∂x at rest (free nodes).
-double omega_max(const MassSpring& s) {
+double dense_omega_max(const MassSpring& s) {
   Eigen::MatrixXd K = -Eigen::MatrixXd(s.dfdx(s.x, false));
   Vector msqrt = s.mass_diagonal().cwiseSqrt().cwiseInverse();
   Eigen::MatrixXd A = msqrt.asDiagonal() * K * msqrt.asDiagonal();
@@ -255,7 +257,7 @@ bool verlet_stable(const MassSpring& rest, double h) {
 
 TEST(PhysicsBar, VerletStableStepIsTwoOverOmegaMax) {
   MassSpring s = bar_system(1000, 0);
-  double wmax = omega_max(s);
+  double wmax = dense_omega_max(s);
   double lo = 1e-4, hi = lo;
   ASSERT_TRUE(verlet_stable(s, lo));
   while (verlet_stable(s, hi)) {
@@ -584,6 +586,108 @@ TEST(PhysicsDeterminism, TwoRunsGiveIdenticalBytes) {
   EXPECT_EQ(run_bytes<LocalGlobal>(50), run_bytes<LocalGlobal>(50));
   EXPECT_EQ(run_bytes<Verlet>(100), run_bytes<Verlet>(100));
   EXPECT_EQ(run_bytes<VelocityVerlet>(100), run_bytes<VelocityVerlet>(100));
+}
+
+TEST(PhysicsSpectrum, LanczosMatchesDenseOmegaMax) {
+  // The bar free and pinned at z = 0, and a sphere network: Lanczos's ω_max against a dense
+  // eigen-solve of M^{-1/2} K M^{-1/2} on the free nodes.
+  std::vector<MassSpring> systems = {bar_system(1000, 0), bar_system(1000, 0),
+                                     mass_spring(tetrahedralize(sphere_mask(8, 0.95)), 2.0, 50)};
+  pin_end(systems[1]);
+  for (MassSpring& s : systems) {
+    std::vector<int> free;
+    for (int i = 0; i < s.nodes(); ++i) {
+      if (!s.is_pinned(i)) free.push_back(i);
+    }
+    Eigen::MatrixXd K = -Eigen::MatrixXd(s.dfdx(s.x, false));
+    Eigen::MatrixXd A(3 * free.size(), 3 * free.size());
+    for (size_t a = 0; a < free.size(); ++a) {
+      for (size_t b = 0; b < free.size(); ++b) {
+        A.block<3, 3>(3 * a, 3 * b) =
+            K.block<3, 3>(3 * free[a], 3 * free[b]) / std::sqrt(s.mass[free[a]] * s.mass[free[b]]);
+      }
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A, Eigen::EigenvaluesOnly);
+    const double dense = std::sqrt(es.eigenvalues().maxCoeff());
+    OmegaMax w = omega_max(s);
+    EXPECT_TRUE(w.converged);
+    EXPECT_NEAR(w.omega / dense, 1, 1e-8);
+    EXPECT_EQ(w.dimension, static_cast<int>(3 * free.size()));
+    std::printf("omega_max: Lanczos %.10g rad/s (%d steps), dense %.10g, %zu free nodes\n", w.omega,
+                w.iterations, dense, free.size());
+  }
+  MassSpring all_pinned = bar_system(10, 0);
+  for (int i = 0; i < all_pinned.nodes(); ++i) all_pinned.pin(i);
+  EXPECT_THROW(omega_max(all_pinned), Error);
+}
+
+TEST(PhysicsSpectrum, VerletStableStepIsTwoOverOmegaMaxOnANetwork) {
+  // A sphere network pinned at its lowest layer: Verlet's largest stable step by bisection to
+  // 1 % is within 5 % of 2/ω_max from Lanczos.
+  MassSpring s = mass_spring(tetrahedralize(sphere_mask(12, 0.95)), 1.0, 3000);
+  double zmin = 1e300;
+  for (int i = 0; i < s.nodes(); ++i) zmin = std::min(zmin, s.position(i).z());
+  for (int i = 0; i < s.nodes(); ++i) {
+    if (s.position(i).z() < zmin + 1e-9) s.pin(i);
+  }
+  const double limit = verlet_step_limit(omega_max(s));
+  double lo = 0.6 * limit, hi = 1.7 * limit;
+  ASSERT_TRUE(verlet_stable(s, lo));
+  ASSERT_FALSE(verlet_stable(s, hi));
+  while (hi / lo > 1.01) {
+    double mid = std::sqrt(lo * hi);
+    (verlet_stable(s, mid) ? lo : hi) = mid;
+  }
+  EXPECT_NEAR(lo / limit, 1, 0.05);
+  std::printf("Verlet on a %d-node sphere network: 2/w_max %.6g s, largest stable %.6g s (%.4f)\n",
+              s.nodes(), limit, lo, lo / limit);
+}
+
+// A network of more than 4096 nodes, so that forces, the implicit system and the local/global
+// sweeps take their parallel paths.
+template <class I>
+std::vector<char> network_bytes(int threads) {
+  tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
+  MassSpring s =
+      mass_spring(tetrahedralize(ellipsoid_mask(Eigen::Vector3d(13, 10, 10))), 1.0, 3e4, 0.5);
+  double zmin = 1e300;
+  for (int i = 0; i < s.nodes(); ++i) zmin = std::min(zmin, s.position(i).z());
+  for (int i = 0; i < s.nodes(); ++i) {
+    if (s.position(i).z() < zmin + 1.5) s.pin(i);
+  }
+  s.gravity = Eigen::Vector3d(0, 0, -9.81);
+  EXPECT_GT(s.nodes(), 4096);
+  I integ;
+  for (int n = 0; n < 4; ++n) EXPECT_TRUE(integ.step(s, 2e-3).ok());
+  std::vector<char> bytes(sizeof(double) * (s.x.size() + s.v.size()));
+  std::memcpy(bytes.data(), s.x.data(), sizeof(double) * s.x.size());
+  std::memcpy(bytes.data() + sizeof(double) * s.x.size(), s.v.data(), sizeof(double) * s.v.size());
+  return bytes;
+}
+
+TEST(PhysicsDeterminism, ThreadCountDoesNotChangeResults) {
+  EXPECT_EQ(network_bytes<ExplicitEuler>(1), network_bytes<ExplicitEuler>(4));
+  EXPECT_EQ(network_bytes<Verlet>(1), network_bytes<Verlet>(4));
+  EXPECT_EQ(network_bytes<VelocityVerlet>(1), network_bytes<VelocityVerlet>(4));
+  EXPECT_EQ(network_bytes<ImplicitEuler>(1), network_bytes<ImplicitEuler>(4));
+  EXPECT_EQ(network_bytes<LocalGlobal>(1), network_bytes<LocalGlobal>(4));
+}
+
+TEST(PhysicsSpring, ForcesFollowChangedSprings) {
+  // The kept adjacency is rebuilt when the springs' ends change.
+  MassSpring s = bar_system(100, 0);
+  Vector f0 = s.forces();
+  s.x[3 * 5] += 0.1;
+  Vector f1 = s.forces();
+  ASSERT_EQ(s.springs[0].i, 0);
+  s.springs[0].j = 5;  // now to the moved node, at another distance than its rest length
+  Vector f2 = s.forces();
+  MassSpring fresh;
+  for (int i = 0; i < s.nodes(); ++i) fresh.add_node(s.position(i), s.mass[i]);
+  fresh.springs = s.springs;
+  EXPECT_EQ(f2, fresh.forces());
+  EXPECT_NE(f1, f2);
+  EXPECT_LT(f0.norm(), 1e-12);
 }
 
 }  // namespace
