@@ -8,6 +8,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "base/error.h"
 
@@ -125,6 +126,15 @@ class JsonReader {
     for (const char* k : allowed) {
       if (v.is_string() && v.get<std::string>() == k) return k;
       list += (list.empty() ? "" : ", ") + std::string(k);
+    }
+    fail(field, v, "must be one of " + list + note);
+  }
+  std::string one_of(const nlohmann::json& v, const std::string& field,
+                     const std::vector<std::string>& allowed, const std::string& note = "") const {
+    std::string list;
+    for (const std::string& k : allowed) {
+      if (v.is_string() && v.get<std::string>() == k) return k;
+      list += (list.empty() ? "" : ", ") + k;
     }
     fail(field, v, "must be one of " + list + note);
   }

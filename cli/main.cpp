@@ -14,6 +14,7 @@
 #include "cli/export.h"
 #include "cli/library.h"
 #include "cli/pipeline.h"
+#include "cli/simulate.h"
 #include "cli/stability.h"
 #include "cli/study.h"
 #include "deformers/registry.h"
@@ -430,6 +431,40 @@ int main(int argc, char** argv) {
       "out/study\n"
       "         raywarp study --stability   (from the repository root)");
 
+  SimulateOptions simopt;
+  std::string sim_cache_dir;
+  bool sim_no_cache = false, sim_gif_only = false;
+  auto* simulate_cmd = app.add_subcommand(
+      "simulate",
+      "Run a scene's simulation boxes once with progress and render every K-th state: "
+      "OUTPUT_0000.png ... and OUTPUT.gif");
+  simulate_cmd->add_option("scene", simopt.scene, "Scene file with a \"simulation\" deformer")
+      ->required();
+  simulate_cmd->add_option("-o,--output", simopt.output, "Frames: DIR/NAME.png")->required();
+  simulate_cmd
+      ->add_option("--every", simopt.every,
+                   "Steps between frames (default: the run's steps / 30, at least 1)")
+      ->check(CLI::Range(1L, 100000L));
+  simulate_cmd->add_option("--camera", simopt.camera, "Camera file overriding the scene's camera");
+  simulate_cmd->add_option("--width", simopt.width, "Image width in pixels")
+      ->check(CLI::Range(1, 8192));
+  simulate_cmd->add_option("--height", simopt.height, "Image height in pixels")
+      ->check(CLI::Range(1, 8192));
+  simulate_cmd->add_option("--context", simopt.context, "OpenGL context: auto, egl or osmesa")
+      ->check(CLI::IsMember({"auto", "egl", "osmesa"}))
+      ->capture_default_str();
+  simulate_cmd->add_option("--delay", simopt.delay_cs, "GIF frame delay in 1/100 s")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  simulate_cmd->add_flag("--gif-only", sim_gif_only, "Write the GIF only, no PNG frames");
+  simulate_cmd->add_option("--cache-dir", sim_cache_dir, "Bake cache folder");
+  simulate_cmd->add_flag("--no-cache", sim_no_cache, "Read and store no cache entry");
+  simulate_cmd->footer(
+      "The run's states are kept in the bake cache: simulating again, or rendering the scene, "
+      "reads them.\n"
+      "Example: raywarp simulate examples/bunny_simulation.json -o out/simulation/frame.png "
+      "--every 10");
+
   bool deformers_markdown = false;
   auto* deformers_cmd = app.add_subcommand(
       "deformers", "List the deformer types with their parameters, ranges and defaults");
@@ -487,6 +522,14 @@ int main(int argc, char** argv) {
     if (*edit) return editor::run_editor(eopt);
     if (*info) return run_info(info_path);
     if (*bake) return run_bake(bopt);
+    if (*simulate_cmd) {
+      auto cache = open_cache(sim_cache_dir, sim_no_cache);
+      simopt.cache = cache.get();
+      simopt.write_frames = !sim_gif_only;
+      simulate(simopt, std::cerr);
+      report_cache(cache.get());
+      return 0;
+    }
     if (*library) {
       lopt.input = lib_input;
       lopt.out = lib_out;

@@ -65,6 +65,21 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << r.active_voxels << " in band, " << fmt("%.1f", mib(s->bytes)) << " MiB, sign by "
         << r.sign_method << " (" << fmt("%.2f", s->seconds) << " s)\n";
   }
+  if (const StageReport* sim = r.stage(Stage::Simulation); sim && r.simulation) {
+    const SimulationStats& b = r.simulation->body;
+    log << tag << "simulation: " << b.nodes << " nodes, " << b.springs << " springs";
+    if (b.tets > 0)
+      log << ", " << b.tets << " tets (smallest dihedral " << fmt("%.3g", b.min_dihedral_deg)
+          << " deg, aspect " << fmt("%.3g", b.max_aspect_ratio) << ")";
+    log << " on " << dims_string(b.cells) << " cells, margin " << fmt("%.3g", b.margin) << ", mass "
+        << fmt("%.4g", b.total_mass) << "; pinned "
+        << (b.pinned_faces.empty() ? std::string("none") : b.pinned_faces) << " (" << b.pinned
+        << " nodes), " << b.dragged << " dragged; " << r.simulation->steps << " steps";
+    if (r.simulation->cg_iterations > 0)
+      log << ", " << r.simulation->cg_iterations << " CG iterations";
+    log << (from_cache(sim) ? ", state from the cache" : "") << " (" << fmt("%.2f", sim->seconds)
+        << " s)\n";
+  }
   const StageReport* def = r.stage(Stage::Deformation);
   if (from_cache(def)) log << tag << "deformation texture and its figures from the cache\n";
   if (r.moves_nothing) {

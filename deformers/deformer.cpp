@@ -123,6 +123,7 @@ Eigen::AlignedBox3d deformed_bounds(const Deformer& deformer, const Eigen::Vecto
           bounds.extend(deformer.forward(f.cwiseProduct(half_extents)));
         }
   }
+  deformer.extend_image_bounds(bounds);
   bounds.min().array() -= pad;
   bounds.max().array() += pad;
   return bounds;

@@ -61,6 +61,9 @@ class Deformer {
   // points outside the box are their own preimage and the ray caster may read the distance grid
   // beyond the box faces (where a removed part leaves a cap).
   virtual bool moves_nothing() const { return false; }
+  // Grows `bounds` to hold F of the parts of the box that F may carry beyond the images of the
+  // box faces (a simulated body's nodes); deformed_bounds calls it. Nothing by default.
+  virtual void extend_image_bounds(Eigen::AlignedBox3d& /*bounds*/) const {}
 };
 
 // Each entry of a vector or matrix clamped to +-DBL_MAX: a result that overflowed to +-inf comes

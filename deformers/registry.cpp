@@ -1,5 +1,6 @@
 #include "deformers/registry.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -97,8 +98,75 @@ void check_sub_box(const JsonReader& r, const json& j, const std::string& field,
 }
 
 std::string format_vector(const Eigen::Vector3d& v) {
-  return "[" + format_number(v.x()) + ", " + format_number(v.y()) + ", " + format_number(v.z()) +
-         "]";
+  std::string out(1, '[');
+  for (int i = 0; i < 3; ++i) {
+    if (i) out += ", ";
+    out += format_number(v[i]);
+  }
+  out += ']';
+  return out;
+}
+
+constexpr size_t kMaxDrags = 64, kMaxDragKeys = 1024;
+
+std::vector<Drag> read_drags(const JsonReader& r, const json& v, const std::string& at,
+                             const Box& box) {
+  const std::string shape =
+      "[{\"sub_min\": [0, 0.8, 0], \"sub_max\": [1, 1, 1], \"path\": [{\"t\": 1, "
+      "\"offset\": [0, 0.2, 0]}]}]";
+  if (!v.is_array() || v.size() > kMaxDrags)
+    r.fail(at, v,
+           "must be a list of at most " + std::to_string(kMaxDrags) + " drags, e.g. " + shape);
+  std::vector<Drag> out;
+  const Interval coordinate = closed(-kMaxCoordinate, kMaxCoordinate);
+  for (size_t i = 0; i < v.size(); ++i) {
+    const std::string drag_at = element(at, i);
+    r.require_object(v[i], drag_at, shape.substr(1, shape.size() - 2));
+    r.check_keys(v[i], drag_at, {"sub_min", "sub_max", "path"});
+    Drag drag;
+    if (v[i].contains("sub_min"))
+      drag.sub_min = r.vec3(v[i]["sub_min"], child(drag_at, "sub_min"), closed(0, 1));
+    if (v[i].contains("sub_max"))
+      drag.sub_max = r.vec3(v[i]["sub_max"], child(drag_at, "sub_max"), closed(0, 1));
+    for (int a = 0; a < 3; ++a)
+      if (!(drag.sub_max[a] >= drag.sub_min[a]))
+        r.fail(element(child(drag_at, "sub_max"), a), v[i].value("sub_max", json(1.0)),
+               "must be at least " + element(child(drag_at, "sub_min"), a) + " = " +
+                   format_number(drag.sub_min[a]));
+    const json& path = r.required(v[i], drag_at, "path",
+                                  "give the path: [{\"t\": seconds, \"offset\": [x, y, z]}]");
+    const std::string path_at = child(drag_at, "path");
+    if (!path.is_array() || path.empty() || path.size() > kMaxDragKeys)
+      r.fail(path_at, path,
+             "must be a list of 1 to " + std::to_string(kMaxDragKeys) +
+                 " keys {\"t\": seconds, \"offset\": [x, y, z]} by increasing t");
+    for (size_t k = 0; k < path.size(); ++k) {
+      const std::string key_at = element(path_at, k);
+      r.require_object(path[k], key_at, "{\"t\": seconds, \"offset\": [x, y, z]}");
+      r.check_keys(path[k], key_at, {"t", "offset"});
+      DragKey key;
+      key.t = r.number(r.required(path[k], key_at, "t", "give the key's time in seconds"),
+                       child(key_at, "t"), closed(0, 1e9));
+      if (!drag.path.empty() && !(key.t > drag.path.back().t))
+        r.fail(child(key_at, "t"), path[k]["t"],
+               "must be later than the key before (t = " + format_number(drag.path.back().t) + ")");
+      key.offset = box.direction_to_local(
+          r.vec3(r.required(path[k], key_at, "offset",
+                            "give the offset from rest [x, y, z] in object units"),
+                 child(key_at, "offset"), coordinate));
+      drag.path.push_back(key);
+    }
+    out.push_back(std::move(drag));
+  }
+  return out;
+}
+
+// Integer parameters of the simulation.
+void check_simulation(const JsonReader& r, const json& j, const std::string& field,
+                      const DeformerSpec& d) {
+  for (const auto& [key, value] :
+       {std::pair<const char*, double>{"resolution", d.sim_resolution}, {"steps", d.sim_steps}})
+    if (value != std::floor(value)) r.fail(child(field, key), j[key], "must be a whole number");
 }
 
 std::vector<DeformerType> make_registry() {
@@ -316,6 +384,88 @@ std::vector<DeformerType> make_registry() {
          {"radius", 1.2}}};
     types.push_back(std::move(t));
   }
+  {
+    DeformerType t;
+    t.name = "simulation";
+    t.summary =
+        "a mass-spring body over the mesh part (Mosegaard & Sorensen's 18-neighbour grid, or "
+        "Kuhn tetrahedra as in Tejada & Ertl), run from rest under gravity, pins and drags; "
+        "its last state deforms the part (docs/simulation.md)";
+    ParamDecl model;
+    model.key = "model";
+    model.kind = ParamKind::Choice;
+    model.choices = sim_model_names();
+    model.meaning = "grid: springs to 18 neighbours, trilinear F; tets: Kuhn tetrahedra, linear F";
+    model.default_text = "grid";
+    model.field = &DeformerSpec::sim_model;
+    ParamDecl integrator = model;
+    integrator.key = "integrator";
+    integrator.choices = sim_integrator_names();
+    integrator.meaning = "how a step is taken (docs/physics.md)";
+    integrator.default_text = "implicit_euler";
+    integrator.field = &DeformerSpec::sim_integrator;
+    ParamDecl gravity;
+    gravity.key = "gravity";
+    gravity.kind = ParamKind::Direction;
+    gravity.range = closed(-1e9, 1e9);
+    gravity.unit = "object units / s^2";
+    gravity.meaning = "acceleration of gravity, object axes";
+    gravity.default_text = "[0, -9.81, 0]";
+    gravity.field = &DeformerSpec::gravity;
+    ParamDecl pins;
+    pins.key = "pins";
+    pins.kind = ParamKind::Faces;
+    pins.meaning = "box faces whose nodes are held at rest";
+    pins.default_text = "the faces the mesh crosses";
+    ParamDecl drags;
+    drags.key = "drags";
+    drags.kind = ParamKind::Drags;
+    drags.unit = "object units, s";
+    drags.meaning =
+        "nodes in a sub-box (fractions, like box_cut) moved along a path of "
+        "{\"t\", \"offset\"} keys";
+    drags.default_text = "[]";
+    t.params = {
+        model,
+        number_param("resolution", &DeformerSpec::sim_resolution, closed(2, 128), "cells",
+                     "lattice cells along the box's longest side", "", "16"),
+        number_param("margin", &DeformerSpec::sim_margin, {0.0, kMaxCoordinate, false, false, true},
+                     "object units", "how far outside the mesh the body reaches", "",
+                     "the cell diagonal"),
+        number_param("density", &DeformerSpec::density, {0.0, 1e9, true, false}, "mass / unit^3",
+                     "mass per volume (lumped on the nodes)", "", "1000"),
+        number_param("ks", &DeformerSpec::ks, {0.0, 1e9, true, false}, "force / unit",
+                     "spring stiffness (Tejada & Ertl's ks; Mosegaard & Sorensen's k is 2 ks)",
+                     "give the spring stiffness in force per object unit, e.g. 3e4"),
+        number_param("kd", &DeformerSpec::kd, closed(0, 1e9), "force s / unit",
+                     "damping of the relative velocity of each spring's two nodes", "", "0"),
+        integrator,
+        number_param("dt", &DeformerSpec::dt, {0.0, 1.0, true, false}, "s", "time step", "",
+                     "0.01"),
+        number_param("steps", &DeformerSpec::sim_steps, closed(1, 100000), "",
+                     "steps run from rest; the last state deforms the part", "", "100"),
+        gravity,
+        pins,
+        drags};
+    t.check = check_simulation;
+    t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h,
+                        const SimulationInput& part, std::vector<std::string>* w,
+                        Interrupter* interrupter) -> std::unique_ptr<Deformer> {
+      Simulation sim(simulation_params(d), h, part, w, interrupter);
+      sim.run(0, nullptr, interrupter);
+      return sim.deformer(sim.positions());
+    };
+    t.examples = {
+        {{"ks", 3e4}, {"steps", 20}, {"gravity", {0, -2, 0}}},
+        {{"model", "tets"},
+         {"ks", 1e4},
+         {"resolution", 8},
+         {"steps", 10},
+         {"pins", {"-y"}},
+         {"drags",
+          {{{"sub_min", {0, 0.9, 0}}, {"path", {{{"t", 0.1}, {"offset", {0.05, 0, 0}}}}}}}}}};
+    types.push_back(std::move(t));
+  }
   return types;
 }
 
@@ -368,8 +518,22 @@ void read_params(const JsonReader& r, const json& j, const std::string& field,
               r.one_of(v[i], element(at, i), {"-x", "+x", "-y", "+y", "-z", "+z"});
           d.pinned[2 * (face[1] - 'x') + (face[0] == '+' ? 1 : 0)] = true;
         }
+        d.pinned_given = true;
         break;
       }
+      case ParamKind::Choice: {
+        const std::string name = r.one_of(v, at, p.choices);
+        const auto it = std::find(p.choices.begin(), p.choices.end(), name);
+        d.*std::get<int DeformerSpec::*>(p.field) = static_cast<int>(it - p.choices.begin());
+        break;
+      }
+      case ParamKind::Direction:
+        d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field) =
+            box.direction_to_local(r.vec3(v, at, p.range));
+        break;
+      case ParamKind::Drags:
+        d.drags = read_drags(r, v, at, box);
+        break;
       case ParamKind::Points: {
         if (!v.is_array() || v.empty() || v.size() > kMaxControlPoints)
           r.fail(at, v,
@@ -430,7 +594,28 @@ void key_params(const std::vector<ParamDecl>& params, const DeformerSpec& d, std
         break;
       case ParamKind::Faces:
         for (bool b : d.pinned) out += b ? '1' : '0';
-        out += ' ';
+        out += d.pinned_given ? " " : "(automatic) ";
+        break;
+      case ParamKind::Choice:
+        out += std::to_string(d.*std::get<int DeformerSpec::*>(p.field)) + " ";
+        break;
+      case ParamKind::Direction:
+        for (int i = 0; i < 3; ++i)
+          number((d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field))[i]);
+        break;
+      case ParamKind::Drags:
+        out += std::to_string(d.drags.size()) + ": ";
+        for (const Drag& drag : d.drags) {
+          for (int i = 0; i < 3; ++i) {
+            number(drag.sub_min[i]);
+            number(drag.sub_max[i]);
+          }
+          out += std::to_string(drag.path.size()) + " keys ";
+          for (const DragKey& key : drag.path) {
+            number(key.t);
+            for (int i = 0; i < 3; ++i) number(key.offset[i]);
+          }
+        }
         break;
       case ParamKind::Points:
         out += std::to_string(d.points.size()) + ": ";
@@ -467,10 +652,23 @@ void describe_params(const std::vector<ParamDecl>& params, const DeformerSpec& d
         value = format_vector(d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field));
         break;
       case ParamKind::Faces:
+        if (!d.pinned_given && !p.default_text.empty() && p.default_text[0] != '[') {
+          value = "automatic";
+          break;
+        }
         value = "[";
         for (int f = 0; f < 6; ++f)
           if (d.pinned[f]) value += std::string(value.size() > 1 ? ", " : "") + kFaceNames[f];
         value += "]";
+        break;
+      case ParamKind::Choice:
+        value = p.choices.at(d.*std::get<int DeformerSpec::*>(p.field));
+        break;
+      case ParamKind::Direction:
+        value = format_vector(d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field));
+        break;
+      case ParamKind::Drags:
+        value = std::to_string(d.drags.size()) + " drags";
         break;
       case ParamKind::Points:
         value = std::to_string(d.points.size()) + " pairs";
@@ -506,6 +704,15 @@ std::string range_text(const ParamDecl& p) {
       return "list of faces";
     case ParamKind::Points:
       return "1 to 1024 pairs";
+    case ParamKind::Choice: {
+      std::string out;
+      for (const std::string& c : p.choices) out += (out.empty() ? "`" : ", `") + c + "`";
+      return out;
+    }
+    case ParamKind::Direction:
+      return "3 finite numbers";
+    case ParamKind::Drags:
+      return "list of drags";
     case ParamKind::Group:
       return "object";
   }
@@ -588,7 +795,43 @@ std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vect
                                         std::vector<std::string>* warnings) {
   const DeformerType* t = find_deformer_type(d.type);
   if (!t) throw Error("type = \"" + d.type + "\": must be one of " + allowed_type_list());
+  if (!t->make)
+    throw Error("type = \"" + d.type +
+                "\": is built over the mesh part inside its box, in a bake (not on its own)");
   return t->make(d, h, warnings);
+}
+
+bool needs_mesh(const DeformerSpec& d) {
+  const DeformerType* t = find_deformer_type(d.type);
+  return t && t->make_on_mesh;
+}
+
+std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vector3d& h,
+                                        const SimulationInput& part,
+                                        std::vector<std::string>* warnings,
+                                        Interrupter* interrupter) {
+  const DeformerType* t = find_deformer_type(d.type);
+  if (!t) throw Error("type = \"" + d.type + "\": must be one of " + allowed_type_list());
+  if (!t->make_on_mesh) return t->make(d, h, warnings);
+  return t->make_on_mesh(d, h, part, warnings, interrupter);
+}
+
+SimulationParams simulation_params(const DeformerSpec& d) {
+  SimulationParams p;
+  p.model = static_cast<SimModel>(d.sim_model);
+  p.integrator = static_cast<SimIntegrator>(d.sim_integrator);
+  p.resolution = static_cast<int>(d.sim_resolution);
+  p.margin = d.sim_margin;
+  p.density = d.density;
+  p.ks = d.ks;
+  p.kd = d.kd;
+  p.dt = d.dt;
+  p.steps = static_cast<long>(d.sim_steps);
+  p.gravity = d.gravity;
+  p.pinned = d.pinned;
+  p.pins_given = d.pinned_given;
+  p.drags = d.drags;
+  return p;
 }
 
 std::string deformer_table() {

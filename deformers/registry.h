@@ -24,8 +24,10 @@
 #include <vector>
 
 #include "base/box.h"
+#include "base/interrupt.h"
 #include "base/json_reader.h"
 #include "deformers/deformer.h"
+#include "deformers/simulation.h"
 
 namespace raywarp {
 
@@ -63,7 +65,16 @@ struct DeformerSpec {
   // 0 = every point acts on the whole box) and the faces held fixed, in face order.
   std::vector<PointPair> points;
   double influence_radius = 0;
-  std::array<bool, 6> pinned{};
+  std::array<bool, 6> pinned{};  // control_points, simulation: the faces held fixed
+  bool pinned_given = false;     // whether the scene listed them (simulation: else automatic)
+  // simulation (deformers/simulation.h): numbers as read, converted by simulation_params.
+  int sim_model = 0;           // index in sim_model_names()
+  int sim_integrator = 3;      // index in sim_integrator_names()
+  double sim_resolution = 16;  // cells along the box's longest side
+  double sim_margin = -1;      // < 0: the cell diagonal
+  double density = 1000, ks = 0, kd = 0, dt = 0.01, sim_steps = 100;
+  Eigen::Vector3d gravity = Eigen::Vector3d(0, -9.81, 0);  // box frame
+  std::vector<Drag> drags;                                 // box frame
 };
 
 // How a parameter is written in JSON and where it is stored.
@@ -74,6 +85,9 @@ enum class ParamKind {
   Fractions,  // [a, b, c], each in [0, 1]                      -> Vector3d field
   Faces,      // a list of faces, e.g. ["-y", "+y"]             -> array<bool, 6> in face order
   Points,     // [{"from": [x, y, z], "to": [x, y, z]}, ...], object coordinates -> points
+  Choice,     // one of `choices`                               -> int field (its index)
+  Direction,  // [x, y, z], object axes, turned into the box frame -> Vector3d field
+  Drags,      // [{"sub_min": .., "sub_max": .., "path": [{"t": s, "offset": [x, y, z]}]}] -> drags
   Group,      // a JSON object of `children`, optional as a whole
 };
 
@@ -89,8 +103,9 @@ struct ParamDecl {
   std::variant<std::monostate, double DeformerSpec::*, int DeformerSpec::*,
                Eigen::Vector3d DeformerSpec::*>
       field;
-  std::vector<ParamDecl> children;  // Group
-  std::string group_hint;           // Group: an example object for messages
+  std::vector<ParamDecl> children;   // Group
+  std::string group_hint;            // Group: an example object for messages
+  std::vector<std::string> choices;  // Choice
 };
 
 struct DeformerType {
@@ -107,6 +122,12 @@ struct DeformerType {
   std::function<std::unique_ptr<Deformer>(const DeformerSpec&, const Eigen::Vector3d& half_extents,
                                           std::vector<std::string>* warnings)>
       make;
+  // Instead of `make`, for a type built over the mesh part inside the box (the simulation): the
+  // deformer given the part's signed distance; long work polls `interrupter`.
+  std::function<std::unique_ptr<Deformer>(
+      const DeformerSpec&, const Eigen::Vector3d& half_extents, const SimulationInput& part,
+      std::vector<std::string>* warnings, Interrupter* interrupter)>
+      make_on_mesh;
   // Parameter objects (without "type") of typical uses, in a box of half extents (1, 1.5, 1):
   // the contract suite runs every one, and the docs show the first.
   std::vector<nlohmann::json> examples;
@@ -130,9 +151,19 @@ bool is_cut(const DeformerSpec& d);
 std::string deformer_key(const DeformerSpec& d);
 // "twist: axis y, angle_deg 360".
 std::string describe_spec(const DeformerSpec& d);
-// The deformer d asks for over a box of half extents h. Throws Error (without a field prefix).
+// The deformer d asks for over a box of half extents h. Throws Error (without a field prefix),
+// also for a type built over the mesh part (needs_mesh), which takes the overload below.
 std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vector3d& h,
                                         std::vector<std::string>* warnings = nullptr);
+// Whether d's type is built over the mesh part inside its box (DeformerType::make_on_mesh).
+bool needs_mesh(const DeformerSpec& d);
+// The deformer over the mesh part `part` (any type: those that do not need it ignore it).
+std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vector3d& h,
+                                        const SimulationInput& part,
+                                        std::vector<std::string>* warnings = nullptr,
+                                        Interrupter* interrupter = nullptr);
+// A simulation spec's parameters (type "simulation").
+SimulationParams simulation_params(const DeformerSpec& d);
 // The Markdown table of every type and parameter (docs/scene.md holds it).
 std::string deformer_table();
 

@@ -12,6 +12,7 @@
 #include "deformers/registry.h"
 #include "library/depth_cube.h"
 #include "library/implicit.h"
+#include "library/triangle_bvh.h"
 #include "library/winding.h"
 
 namespace raywarp {
@@ -217,6 +218,48 @@ std::uint64_t value_bytes(const StepBounds& b) {
 }
 std::uint64_t value_bytes(const DepthCube& c) { return c.texture_bytes(); }
 
+// A simulation's last state (box frame) and what the run took.
+struct SimulationRecord {
+  std::vector<Eigen::Vector3d> positions;
+  long steps = 0, cg_iterations = 0, cg_capped = 0;
+  double seconds = 0.0;
+};
+
+std::vector<char> save_simulation(const SimulationRecord& s) {
+  CacheWriter w;
+  w.integer(static_cast<long>(s.positions.size()));
+  for (const Eigen::Vector3d& p : s.positions)
+    for (int i = 0; i < 3; ++i) w.number(p[i]);
+  w.integer(s.steps);
+  w.integer(s.cg_iterations);
+  w.integer(s.cg_capped);
+  w.number(s.seconds);
+  return w.bytes();
+}
+
+bool load_simulation(const std::vector<char>& bytes, SimulationRecord& s) {
+  CacheReader r(bytes);
+  SimulationRecord out;
+  const long n = r.integer();
+  if (!r.ok() || n < 0 || n > kMaxSimulationNodes) return false;
+  out.positions.resize(static_cast<size_t>(n));
+  for (Eigen::Vector3d& p : out.positions)
+    for (int i = 0; i < 3; ++i) p[i] = r.number();
+  out.steps = r.integer();
+  out.cg_iterations = r.integer();
+  out.cg_capped = r.integer();
+  out.seconds = r.number();
+  if (!r.ok() || !r.at_end()) return false;
+  for (const Eigen::Vector3d& p : out.positions)
+    if (!p.allFinite()) return false;
+  s = std::move(out);
+  return true;
+}
+
+std::uint64_t value_bytes(const SimulationRecord& s) {
+  return s.positions.size() * sizeof(Eigen::Vector3d);
+}
+
 }  // namespace
 
 const char* stage_name(Stage stage) {
@@ -225,6 +268,8 @@ const char* stage_name(Stage stage) {
       return "distance grid";
     case Stage::DepthCube:
       return "depth cube";
+    case Stage::Simulation:
+      return "simulation";
     case Stage::Deformation:
       return "deformation texture";
     case Stage::Alpha:
@@ -446,9 +491,16 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   BakedBox out;
   BakeReport& report = out.report;
   std::vector<std::string> notes;
-  out.deformer = make_box_deformer(spec, job.where, &notes);
-  for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
-  report.deformer = out.deformer->describe();
+  // A simulation is built over the mesh part, after the implicit surface.
+  const bool on_mesh = needs_mesh(spec.deformer);
+  if (on_mesh && !spec.then.empty())
+    throw Error(job.where + ".then: a " + spec.deformer.type +
+                " deformer must be the box's only one (compose it with nothing)");
+  if (!on_mesh) {
+    out.deformer = make_box_deformer(spec, job.where, &notes);
+    for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
+    report.deformer = out.deformer->describe();
+  }
   report.parameters = describe_spec(spec.deformer);
   for (const DeformerSpec& d : spec.then) report.parameters += "; " + describe_spec(d);
 
@@ -504,7 +556,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   report.implicit_choice.resolution = implicit.resolution;
   // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
   // the grid holds only +-background, must reach past tau.
-  if (out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell && implicit.type == "sdf") {
+  if (out.deformer && out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell &&
+      implicit.type == "sdf") {
     const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
     const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;
     if (needed > implicit.band_voxels) {
@@ -557,6 +610,95 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   const double voxel = implicit_spacing(tex);
   report.voxel = voxel;
 
+  std::string simulation_key;
+  if (on_mesh) {
+    const SimulationParams params = simulation_params(spec.deformer);
+    auto key_for = [&](const DeformerSpec& d) {
+      return (Key() << "simulation\nmesh" << job.mesh->hash << "\n"
+                    << box_key(spec.box) << "\nimplicit"
+                    << (sdf_key.empty() ? "depth cube " + std::to_string(implicit.resolution)
+                                        : sdf_key)
+                    << "\n"
+                    << deformer_key(d))
+          .str();
+    };
+    simulation_key = key_for(spec.deformer);
+    // The part's signed distance: exact, from the triangles, with the implicit surface's sign.
+    // Only the margin's band matters; farther answers stop at a bound.
+    const double cell = 2.0 * spec.box.half_extents.maxCoeff() / params.resolution;
+    const double bound = 2.0 * std::max(params.margin, std::sqrt(3.0) * cell) + cell;
+    const TriangleBvh bvh(mesh);
+    SimulationInput part;
+    part.signed_distance = [&](const Eigen::Vector3d& q) {
+      const double d = bvh.nearest_distance(spec.box.to_object(q), bound);
+      return implicit_value(tex, q) > 0.0 ? d : -d;
+    };
+    std::vector<std::string> sim_notes;
+    const auto started = std::chrono::steady_clock::now();
+    Simulation sim = [&] {
+      try {
+        return Simulation(params, spec.box.half_extents, part, &sim_notes, interrupter);
+      } catch (const Error& e) {
+        throw Error(job.where + ".deformer." + e.what());
+      }
+    }();
+    SimulationRecord state;
+    const Source source = stage(
+        state, "simulation", simulation_key, counters_.simulation,
+        [&] {
+          // Every keep_every-th state is stored under its own step count (memory and disk), so
+          // a sequence of bakes at those counts runs the simulation once.
+          auto keep_state = [&](long step, const std::vector<Eigen::Vector3d>& positions) {
+            if (step == params.steps) return;  // the stage stores it
+            DeformerSpec at = spec.deformer;
+            at.sim_steps = static_cast<double>(step);
+            SimulationRecord r;
+            r.positions = positions;
+            r.steps = step;
+            r.cg_iterations = sim.stats().cg_iterations;
+            r.cg_capped = sim.stats().cg_capped;
+            r.seconds = seconds_since(started);
+            const std::string key = key_for(at);
+            keep(key, std::make_shared<const SimulationRecord>(r), value_bytes(r));
+            if (disk_) disk_->put("simulation", key, save_simulation(r), nullptr);
+          };
+          try {
+            sim.run(job.keep_every, job.keep_every > 0 ? Simulation::Keep(keep_state) : nullptr,
+                    interrupter);
+          } catch (const Error& e) {
+            throw Error(job.where + ".deformer: " + e.what());
+          }
+          SimulationRecord r;
+          r.positions = sim.positions();
+          r.steps = sim.stats().steps;
+          r.cg_iterations = sim.stats().cg_iterations;
+          r.cg_capped = sim.stats().cg_capped;
+          r.seconds = seconds_since(started);
+          return r;
+        },
+        save_simulation, load_simulation);
+    if (state.positions.size() != sim.rest().size())
+      throw Error(job.where + ": the cached simulation state does not fit the body");
+    out.deformer = sim.deformer(state.positions);
+    for (std::string& n : sim_notes) report.warnings.push_back({"deformer_note", std::move(n)});
+    report.deformer = out.deformer->describe();
+    const SimulationStats& st = sim.stats();
+    report.simulation = SimulationReport{st, state.steps, state.cg_iterations, state.cg_capped};
+    StageReport s;
+    s.stage = Stage::Simulation;
+    s.source = source;
+    s.resolution = st.cells;
+    s.spacing = st.spacing;
+    s.bytes = value_bytes(state);
+    s.seconds = state.seconds;
+    report.stages.push_back(s);
+    if (state.cg_capped > 0)
+      report.warnings.push_back(
+          {"solver_cap", std::to_string(state.cg_capped) + " of " + std::to_string(state.steps) +
+                             " implicit Euler solves stopped at the CG iteration cap above their "
+                             "tolerance: the state is less accurate than asked (lower dt)"});
+  }
+
   tex.moves_nothing = out.deformer->moves_nothing();
   report.moves_nothing = tex.moves_nothing;
   // A deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
@@ -574,7 +716,7 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     layout << resolution;
   const std::string def_key =
       (Key() << "deformation\n"
-             << deformer_key(spec) << "\nresolution" << layout.str()
+             << deformer_key(spec) << simulation_key << "\nresolution" << layout.str()
              << (job.centre_on_lower_faces ? "centred on the lower faces" : "")
              << "residual tolerance" << kResidualVoxels * voxel)
           .str();

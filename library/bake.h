@@ -19,11 +19,13 @@
 #include <filesystem>
 #include <list>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "base/interrupt.h"
 #include "deformers/deformer.h"
+#include "deformers/simulation.h"
 #include "library/bake_cache.h"
 #include "library/deformation_bake.h"
 #include "library/implicit.h"
@@ -46,7 +48,7 @@ using MeshPtr = std::shared_ptr<const MeshHandle>;
 MeshPtr load_mesh_handle(const std::filesystem::path& file);
 
 // The stages of a box's bake, in the order they run.
-enum class Stage { DistanceGrid, DepthCube, Deformation, Alpha, StepBounds };
+enum class Stage { DistanceGrid, DepthCube, Simulation, Deformation, Alpha, StepBounds };
 const char* stage_name(Stage stage);  // "distance grid", "depth cube", ...
 // Where a stage's result came from.
 enum class Source { Baked, Memory, Disk };
@@ -61,11 +63,19 @@ struct StageReport {
   double seconds = 0.0;                                  // the bake's own time, also when read back
 };
 
+// A simulation deformer's body and run (stage Simulation).
+struct SimulationReport {
+  SimulationStats body;  // lattice, nodes, springs, tets and their quality, pins
+  long steps = 0;
+  long cg_iterations = 0;  // implicit Euler, over all steps
+  long cg_capped = 0;      // implicit Euler solves stopped at the iteration cap
+};
+
 // Something a user should know about a bake. `code` is stable (front ends may key on it); the
 // message is one sentence with the figures.
 struct BakeWarning {
   std::string code;  // deformer_note | inverse_residual | texture_coarse | folds | torn_face |
-                     // open_mesh | max_steps_short | cache_store | empty_box
+                     // open_mesh | max_steps_short | cache_store | empty_box | solver_cap
   std::string message;
 };
 
@@ -75,6 +85,7 @@ struct BakeReport {
   std::vector<StageReport> stages;
   const StageReport* stage(Stage s) const;  // null when the job had no such stage
 
+  std::optional<SimulationReport> simulation;  // a simulation deformer's body and run
   double voxel = 0.0;  // the implicit's spacing: the unit of steps, seams and the errors below
   ImplicitChoice implicit_choice;  // how an automatic implicit resolution was chosen
   // Distance grid (stage DistanceGrid).
@@ -118,6 +129,10 @@ struct BakeJob {
   double step_voxels = 4.0;
   // Texel centres of D on the box's lower faces (bake_deformation), for animation by a map M.
   bool centre_on_lower_faces = false;
+  // A simulation box's run also keeps every keep_every-th state (0: none) in the session's memory
+  // and the disk cache, each under the key of the same box with `steps` set to that step count:
+  // bakes of the sequence at steps K, 2K, ... then run the simulation once (`raywarp simulate`).
+  long keep_every = 0;
 };
 BakeJob make_job(const Scene& scene, size_t box_index, MeshPtr mesh,
                  bool centre_on_lower_faces = false);
@@ -146,9 +161,12 @@ class BakeSession {
 
   // Stages baked (not read from memory or disk) since the session began.
   struct Counters {
-    long distance_grid = 0, depth_cube = 0, deformation = 0, alpha = 0, step_bounds = 0;
+    long distance_grid = 0, depth_cube = 0, simulation = 0, deformation = 0, alpha = 0,
+         step_bounds = 0;
     long memory_hits = 0, disk_hits = 0;
-    long baked() const { return distance_grid + depth_cube + deformation + alpha + step_bounds; }
+    long baked() const {
+      return distance_grid + depth_cube + simulation + deformation + alpha + step_bounds;
+    }
   };
   const Counters& counters() const { return counters_; }
   std::uint64_t memory_bytes() const { return memory_bytes_; }

@@ -108,6 +108,11 @@ void read_deformers(const JsonReader& r, const json& j, const std::string& field
                  ") cannot be composed with other deformers; give it a box of its own, or list "
                  "only " +
                  continuous_type_names());
+    if (needs_mesh(d) && j.size() > 1)
+      r.fail(child(element(field, i), "type"), j[i]["type"],
+             "a " + d.type +
+                 " deformer is built over the mesh part and cannot be composed with other "
+                 "deformers; give it a box of its own");
     if (i == 0)
       b.deformer = std::move(d);
     else

@@ -145,6 +145,17 @@ TEST(BakeCache, KeysNameEveryDeformerParameter) {
       case ParamKind::Points:
         d.points.push_back({});
         break;
+      case ParamKind::Choice: {
+        int& c = d.*std::get<int DeformerSpec::*>(p.field);
+        c = (c + 1) % static_cast<int>(p.choices.size());
+        break;
+      }
+      case ParamKind::Direction:
+        (d.*std::get<Eigen::Vector3d DeformerSpec::*>(p.field)).x() += 1e-12;
+        break;
+      case ParamKind::Drags:
+        d.drags.push_back({});
+        break;
       case ParamKind::Group:
         break;
     }

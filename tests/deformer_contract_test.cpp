@@ -95,7 +95,13 @@ class DeformerContract : public ::testing::TestWithParam<Instance> {
   void SetUp() override {
     type_ = GetParam().type;
     spec_ = read(scene_json(GetParam()));
-    deformer_ = make_deformer(spec_, contract_box().half_extents);
+    // A type built over the mesh part (the simulation) gets a cylinder of radius 0.6 along y,
+    // through the -y and +y faces.
+    SimulationInput part;
+    part.signed_distance = [](const Eigen::Vector3d& q) {
+      return 0.6 - Eigen::Vector2d(q.x(), q.z()).norm();
+    };
+    deformer_ = make_deformer(spec_, contract_box().half_extents, part);
     ASSERT_TRUE(deformer_);
   }
   bool in_cut(const Eigen::Vector3d& p_def) const {
@@ -297,6 +303,12 @@ std::vector<json> wrong_values(ParamKind kind) {
       return {"w", json::array(), json::object({{"from", {0, 0, 0}}})};
     case ParamKind::Group:
       return {"w", 1, json::array()};
+    case ParamKind::Choice:
+      return {"w", 1, json::array({"grid"})};
+    case ParamKind::Direction:
+      return {"w", 0.5, json::array({0, 1}), json::array({0, "a", 1})};
+    case ParamKind::Drags:
+      return {"w", 1, json::object({{"path", json::array()}})};
   }
   return {};
 }
@@ -329,7 +341,8 @@ TEST_P(DeformerContract, ErrorsNamed) {
             j[path / p.key] = bad;
             // A wrong element of a list is named by its index, e.g. deformer.sub_min[1].
             const bool element_wrong =
-                p.kind == ParamKind::Fractions && bad.is_array() && bad.size() == 3;
+                (p.kind == ParamKind::Fractions || p.kind == ParamKind::Direction) &&
+                bad.is_array() && bad.size() == 3;
             const bool faces_element = p.kind == ParamKind::Faces && bad.is_array();
             if (element_wrong)
               expect_refused(j, field + "[1]", "\"a\"");

@@ -1,0 +1,106 @@
+// Image tests of the simulation deformer (docs/simulation.md): the GL render (raster pass and
+// ray-cast pass through OSMesa) against the exact ground truth of the same F (the mesh subdivided
+// to a quarter voxel, the part in the box mapped by F, rasterised on the CPU), with the image
+// thresholds of tests/render_test.cpp: silhouette IoU >= 0.98 and at most 2 % of the commonly
+// covered pixels off by more than 1 % of the deformed mesh's bounding-box diagonal.
+//   SimulatedState  examples/bunny_simulation.json: the drag's last state (folds included).
+//   TwistedNodes    a lattice whose every sample is placed on a 180-degree twist about y of the
+//                   box of examples/bunny_head_twist.json: F is the trilinear (grid) or
+//                   piecewise-linear (tets) interpolant of the twist, baked (automatic layout)
+//                   and rendered like a simulation's.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "deformers/registry.h"
+#include "deformers/simulation.h"
+#include "deformers/twist.h"
+#include "library/deformation_bake.h"
+#include "tests/ground_truth_render.h"
+
+using namespace raywarp;
+
+namespace {
+
+constexpr int kSize = 256;
+
+void expect_thresholds(const std::string& name, const ImageComparison& c, const Image& gl,
+                       const Image& truth) {
+  std::printf(
+      "[figures] simulation render %s: IoU %.4f, over 1%% of diag %.2f%%, mean depth err %.4g, "
+      "max %.4g\n",
+      name.c_str(), c.iou, 100 * c.fraction_over, c.mean_depth_error, c.max_depth_error);
+  std::filesystem::create_directories("simulation_render_test_images");
+  write_png("simulation_render_test_images/" + name + "_gl.png", gl);
+  write_png("simulation_render_test_images/" + name + "_truth.png", truth);
+  EXPECT_GE(c.iou, 0.98) << name;
+  EXPECT_LE(c.fraction_over, 0.02) << name;
+}
+
+TEST(SimulationRender, SimulatedStateMatchesGroundTruth) {
+  const raywarp::testing::GroundTruthRun run =
+      raywarp::testing::render_against_ground_truth("bunny_simulation.json", "front.json", kSize);
+  ASSERT_EQ(run.prepared.boxes.size(), 1u);
+  ASSERT_TRUE(run.prepared.boxes[0].report.simulation.has_value()) << run.log;
+  EXPECT_EQ(run.stats.nonfinite_pixels, 0);
+  expect_thresholds("bunny_simulation", run.vs_truth, run.gl_image, run.truth);
+}
+
+TEST(SimulationRender, TwistedNodesMatchGroundTruth) {
+  const std::string root = RAYWARP_SOURCE_DIR;
+  const Scene scene = load_scene(root + "/examples/bunny_head_twist.json");
+  const Camera camera = load_camera(root + "/examples/cameras/front.json");
+  std::ostringstream log;
+  PreparedScene prepared = prepare_scene(scene, log);
+  ASSERT_EQ(prepared.boxes.size(), 1u);
+  const Eigen::Vector3d h = scene.boxes[0].box.half_extents;
+  const auto twist = make_twist(h, Axis::Y, 180.0);
+  for (SimModel model : {SimModel::grid, SimModel::tets}) {
+    // Every sample of a 32-cell lattice is a node, placed on the twist.
+    const double target = 2.0 * h.maxCoeff() / 32;
+    Eigen::Vector3i cells;
+    for (int a = 0; a < 3; ++a)
+      cells[a] = std::max(1, static_cast<int>(std::lround(2 * h[a] / target)));
+    const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
+    std::vector<int> node_of_sample;
+    std::vector<Eigen::Vector3d> nodes;
+    for (int k = 0; k <= cells.z(); ++k)
+      for (int j = 0; j <= cells.y(); ++j)
+        for (int i = 0; i <= cells.x(); ++i) {
+          node_of_sample.push_back(static_cast<int>(nodes.size()));
+          nodes.push_back(twist->forward(-h + spacing.cwiseProduct(Eigen::Vector3d(i, j, k))));
+        }
+    std::shared_ptr<const Deformer> f =
+        make_lattice_deformer(model, h, cells, node_of_sample, nodes);
+    BakedBox& box = prepared.boxes[0];
+    box.deformer = f;
+    // The automatic layout a bake picks (scene.h), as for any deformer.
+    box.textures.deformation =
+        bake_deformation_auto(*f, h, kAutoErrorVoxels * box.textures.sdf.grid.voxel(),
+                              std::uint64_t(64) << 20, kAutoFloorResolution, false)
+            .texture;
+    box.textures.region = Eigen::AlignedBox3d(box.textures.deformation.grid.origin,
+                                              box.textures.deformation.grid.upper());
+    box.textures.lipschitz = displacement_lipschitz(*f, box.textures.deformation);
+
+    raywarp::testing::osmesa_context();
+    gl::Renderer renderer;
+    renderer.set_mesh(prepared.mesh());
+    renderer.set_boxes(prepared.textures());
+    gl::FrameStats stats;
+    const Image image = renderer.render(camera, kSize, kSize, scene.render, &stats);
+    EXPECT_EQ(stats.nonfinite_pixels, 0);
+    const double quarter_voxel = 0.25 * box.textures.sdf.grid.voxel();
+    const Mesh truth_mesh = ground_truth_mesh(
+        prepared.mesh(), box.textures.box, [&](const Eigen::Vector3d& p) { return f->forward(p); },
+        quarter_voxel);
+    const Image truth = rasterize(truth_mesh, camera, kSize, kSize, scene.render);
+    const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
+    expect_thresholds(std::string("twisted_nodes_") + sim_model_names()[static_cast<int>(model)],
+                      compare_images(image, truth, 0.01 * diagonal), image, truth);
+  }
+}
+
+}  // namespace
