@@ -16,6 +16,7 @@
 #include "cli/pipeline.h"
 #include "cli/simulate.h"
 #include "cli/stability.h"
+#include "cli/stiffness.h"
 #include "cli/study.h"
 #include "deformers/registry.h"
 #include "editor/editor.h"
@@ -161,11 +162,20 @@ struct StudyCli {
   std::vector<std::string> scenes;
   std::string out, context = "auto";
   int size = 256, frames = 5, goal_size = 512;
-  bool stability = false, quick = false;
+  bool stability = false, quick = false, stiffness = false;
   bool size_given = false;
 };
 
 int run_study_cli(StudyCli opt) {
+  if (opt.stiffness) {
+    if (opt.stability || !opt.scenes.empty())
+      throw Error("study --stiffness: takes no scenes and not --stability");
+    StiffnessOptions so;
+    so.out = opt.out;
+    so.quick = opt.quick;
+    run_stiffness_study(so, std::cerr);
+    return 0;
+  }
   if (opt.stability) {
     // The extreme cases; paths as given, so the report names them relative to the repository.
     if (opt.scenes.empty()) {
@@ -422,6 +432,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   study->add_flag("--stability", sopt.stability,
                   "Run the extreme and stiff cases instead and write the stability table");
+  study->add_flag("--stiffness", sopt.stiffness,
+                  "Run the mass-spring stiffness study instead (needs --out DIR; "
+                  "docs/physics.md)");
   study->add_flag("--quick", sopt.quick, "Two settings per method and no goals (a smoke test)");
   study->add_option("--context", sopt.context, "OpenGL context: auto, egl or osmesa")
       ->check(CLI::IsMember({"auto", "egl", "osmesa"}))

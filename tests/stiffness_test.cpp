@@ -1,0 +1,120 @@
+// `raywarp study --stiffness --quick` (cli/stiffness.h): the files it writes, their columns and
+// figures, and its refusal of bad options.
+#include "cli/stiffness.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result run(const std::string& args) {
+  std::string cmd = std::string(RAYWARP_BINARY) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (size_t n = fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+  int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> f;
+  std::string cur;
+  bool quoted = false;
+  for (char c : line) {
+    if (c == '"') {
+      quoted = !quoted;
+    } else if (c == ',' && !quoted) {
+      f.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  f.push_back(cur);
+  return f;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
+  std::random_device rd;
+  const fs::path dir = fs::temp_directory_path() / ("raywarp_stiffness_" + std::to_string(rd()));
+  Result r = run("study --stiffness --quick --out " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("stiffness ["), std::string::npos) << r.output;  // progress lines
+  std::ifstream csv(dir / "stiffness.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_EQ(header, raywarp::kStiffnessCsvHeader);
+  const std::vector<std::string> columns = split(header);
+  ASSERT_EQ(columns.size(), 13u);
+  EXPECT_EQ(columns[0], "section");
+  EXPECT_EQ(columns[10], "quantity");
+  EXPECT_EQ(columns[11], "value");
+  std::set<std::string> sections, quantities;
+  double verlet_step = 0, predicted = 0;
+  std::string line;
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f = split(line);
+    ASSERT_EQ(f.size(), columns.size()) << line;
+    ++rows;
+    sections.insert(f[0]);
+    quantities.insert(f[10]);
+    if (f[0] == "stability" && f[5] == "Verlet" && f[6] == "10000" &&
+        f[10] == "largest_stable_step")
+      verlet_step = std::stod(f[11]);
+    if (f[0] == "stability" && f[6] == "10000" && f[10] == "predicted_step")
+      predicted = std::stod(f[11]);
+  }
+  EXPECT_GT(rows, 30);
+  for (const char* s : {"stability", "amplitude", "cg", "local_global", "speed", "replay"})
+    EXPECT_EQ(sections.count(s), 1u) << s;
+  for (const char* q : {"omega_max", "predicted_step", "largest_stable_step", "energy_drift",
+                        "amplitude_per_period", "theory_amplitude_per_period",
+                        "cg_iterations_per_step", "error_vs_converged_implicit", "ms_per_step"})
+    EXPECT_EQ(quantities.count(q), 1u) << q;
+  // Verlet's measured limit on the bar within 5 % of 2/ω_max (the quick search's tolerance).
+  ASSERT_GT(predicted, 0);
+  EXPECT_NEAR(verlet_step / predicted, 1, 0.06);
+  const std::string report = read(dir / "report.md");
+  EXPECT_NE(report.find("Tejada & Ertl"), std::string::npos);
+  EXPECT_NE(report.find("2.22 ms"), std::string::npos);
+  for (const char* svg : {"stability.svg", "amplitude.svg", "solvers.svg"}) {
+    EXPECT_NE(read(dir / svg).find("<svg"), std::string::npos) << svg;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(StiffnessStudy, BadOptionsExitTwo) {
+  Result r = run("study --stiffness --quick");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+  r = run("study --stiffness --stability --out /tmp/x");
+  EXPECT_EQ(r.code, 2) << r.output;
+}
+
+}  // namespace
