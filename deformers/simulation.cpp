@@ -336,27 +336,12 @@ class LatticeDeformer final : public Deformer {
     const Eigen::Vector3i cell = cell_of(best_cell);
     double least = std::numeric_limits<double>::infinity();
     for (int o = 0; o < 6; ++o) {
-      const std::array<int, 4> k = kuhn_corners(o);
-      const Eigen::Vector3d& x0 = corner_position(cell, k[0]);
-      Eigen::Matrix3d e;
-      for (int m = 0; m < 3; ++m) e.col(m) = corner_position(cell, k[m + 1]) - x0;
-      Eigen::Matrix3d inv;
-      bool invertible = false;
-      double det = 0;
-      e.computeInverseAndDetWithCheck(inv, det, invertible, 1e-14 * std::pow(diagonal_, 3.0));
-      if (!invertible) continue;
-      const Eigen::Vector3d l = inv * (q - x0);
+      Eigen::Vector3d l;
+      if (!kuhn_coordinates(cell, o, q, l)) continue;
       const double outside = std::max({-l.minCoeff(), l.sum() - 1.0, 0.0});
       if (!(outside < least)) continue;
       least = outside;
-      // Unclamped: corner m + 1 is corner m plus e_{order[m]}.
-      Eigen::Vector3d f;
-      double along = l.sum();
-      for (int m = 0; m < 3; ++m) {
-        f[kOrders[o][m]] = along;
-        along -= l[m];
-      }
-      out = -h_ + spacing_.cwiseProduct(cell.cast<double>() + f);
+      out = -h_ + spacing_.cwiseProduct(cell.cast<double>() + kuhn_cell_point(o, l));  // unclamped
     }
     return std::isfinite(least) && out.allFinite();
   }
@@ -395,31 +380,45 @@ class LatticeDeformer final : public Deformer {
     return false;
   }
 
+  // q's coordinates l in deformed Kuhn tetrahedron `order` of `cell`: q = x0 + sum_m l_m (x_{m+1}
+  // - x0) over its corners x0..x3; false for a flattened tetrahedron (no volume to invert).
+  bool kuhn_coordinates(const Eigen::Vector3i& cell, int order, const Eigen::Vector3d& q,
+                        Eigen::Vector3d& l) const {
+    const std::array<int, 4> k = kuhn_corners(order);
+    const Eigen::Vector3d& x0 = corner_position(cell, k[0]);
+    Eigen::Matrix3d e;
+    for (int m = 0; m < 3; ++m) e.col(m) = corner_position(cell, k[m + 1]) - x0;
+    Eigen::Matrix3d inv;
+    bool invertible = false;
+    double det = 0;
+    e.computeInverseAndDetWithCheck(inv, det, invertible, 1e-14 * std::pow(diagonal_, 3.0));
+    if (!invertible) return false;
+    l = inv * (q - x0);
+    return true;
+  }
+
+  // The cell coordinates of the point with Kuhn coordinates l in tetrahedron `order` at rest:
+  // corner m + 1 is corner m plus e_{order[m]}.
+  static Eigen::Vector3d kuhn_cell_point(int order, const Eigen::Vector3d& l) {
+    Eigen::Vector3d f;
+    double along = l.sum();
+    for (int m = 0; m < 3; ++m) {
+      f[kOrders[order][m]] = along;
+      along -= l[m];
+    }
+    return f;
+  }
+
   // The rest point of `cell` that F maps to q, when q lies in the deformed cell: per Kuhn
   // tetrahedron exactly (the first that holds q), or by damped Newton on the trilinear map.
   bool cell_preimage(const Eigen::Vector3i& cell, const Eigen::Vector3d& q, bool more_starts,
                      Eigen::Vector3d& p) const {
     if (model_ == SimModel::tets) {
       for (int o = 0; o < 6; ++o) {
-        const std::array<int, 4> k = kuhn_corners(o);
-        const Eigen::Vector3d& x0 = corner_position(cell, k[0]);
-        Eigen::Matrix3d e;
-        for (int m = 0; m < 3; ++m) e.col(m) = corner_position(cell, k[m + 1]) - x0;
-        Eigen::Matrix3d inv;
-        bool invertible = false;
-        double det = 0;
-        e.computeInverseAndDetWithCheck(inv, det, invertible, 1e-14 * std::pow(diagonal_, 3.0));
-        if (!invertible) continue;  // a flattened tetrahedron holds no volume to invert
-        const Eigen::Vector3d l = inv * (q - x0);
+        Eigen::Vector3d l;
+        if (!kuhn_coordinates(cell, o, q, l)) continue;
         if (l.minCoeff() < -kInside || l.sum() > 1.0 + kInside) continue;
-        // Corner m + 1 is corner m plus e_{order[m]}: back to the cell's coordinates.
-        const Eigen::Vector3d lc = l.cwiseMax(0.0);
-        Eigen::Vector3d f;
-        double along = lc.sum();
-        for (int m = 0; m < 3; ++m) {
-          f[kOrders[o][m]] = std::min(along, 1.0);
-          along -= lc[m];
-        }
+        const Eigen::Vector3d f = kuhn_cell_point(o, l.cwiseMax(0.0)).cwiseMin(1.0);
         p = -h_ + spacing_.cwiseProduct(cell.cast<double>() + f);
         return true;
       }
