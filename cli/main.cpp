@@ -168,11 +168,16 @@ struct StudyCli {
 
 int run_study_cli(StudyCli opt) {
   if (opt.stiffness) {
-    if (opt.stability || !opt.scenes.empty())
-      throw Error("study --stiffness: takes no scenes and not --stability");
+    if (opt.stability || opt.scenes.size() > 1)
+      throw Error(
+          "study --stiffness: takes at most one scene (a simulation scene for the image part) "
+          "and not --stability");
     StiffnessOptions so;
     so.out = opt.out;
+    if (!opt.scenes.empty()) so.scene = opt.scenes[0];
     so.quick = opt.quick;
+    auto context = gl::create_context(opt.context);  // for the image part
+    std::cerr << "context: " << context->description() << "\n";
     run_stiffness_study(so, std::cerr);
     return 0;
   }
@@ -417,7 +422,9 @@ int main(int argc, char** argv) {
       "against each scene's exact ground truth; writes DIR/study.csv, DIR/pareto.svg and "
       "DIR/report.md. With --stability: the extreme cases, written to docs/stability.md");
   study->add_option("scenes", sopt.scenes,
-                    "Scene files (default with --stability: examples/extreme/*.json)");
+                    "Scene files (default with --stability: examples/extreme/*.json; with "
+                    "--stiffness: one simulation scene for the image part, default "
+                    "examples/bunny_simulation.json)");
   study->add_option("-o,--out", sopt.out,
                     "Output folder (required; with --stability the markdown file, default "
                     "docs/stability.md)");
@@ -442,7 +449,8 @@ int main(int argc, char** argv) {
   study->footer(
       "Example: raywarp study examples/bunny_twist.json examples/bunny_cut_solid.json --out "
       "out/study\n"
-      "         raywarp study --stability   (from the repository root)");
+      "         raywarp study --stability   (from the repository root)\n"
+      "         raywarp study --stiffness --out out/stiffness   (from the repository root)");
 
   SimulateOptions simopt;
   std::string sim_cache_dir;

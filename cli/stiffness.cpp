@@ -17,6 +17,7 @@
 #include "base/atomic_file.h"
 #include "base/error.h"
 #include "cli/chart.h"
+#include "cli/stiffness_images.h"
 #include "library/mesh.h"
 #include "library/winding.h"
 #include "physics/integrators.h"
@@ -84,12 +85,11 @@ Model make_model(std::string name, const TetMesh& mesh, int axis, double pin_dep
   return m;
 }
 
-fs::path find_bunny(const fs::path& given) {
+fs::path find_example(const fs::path& given, const fs::path& example) {
   if (!given.empty()) return given;
-  const fs::path p = "examples/meshes/bunny.ply";
-  if (fs::exists(p)) return p;
-  throw Error(
-      "study --stiffness: examples/meshes/bunny.ply not found; run it from the repository root");
+  if (fs::exists(example)) return example;
+  throw Error("study --stiffness: " + example.generic_string() +
+              " not found; run it from the repository root");
 }
 
 // The bunny's inside (generalised winding number > 0.5) sampled `voxels` samples along its
@@ -361,7 +361,7 @@ void run_stiffness_study(const StiffnessOptions& options, std::ostream& progress
   models.push_back(make_model("bar", bar(2, 1, 7), 2, 0.5, quick ? 20000 : 400000,
                               "bar(2, 1, 7): 2 x 1 x 7 unit cubes, pinned at z = 0"));
   if (!quick) {
-    fs::path bunny_path = find_bunny(options.bunny);
+    fs::path bunny_path = find_example(options.bunny, "examples/meshes/bunny.ply");
     TetMesh bunny = tetrahedralize(bunny_mask(bunny_path, 16));
     models.push_back(make_model("bunny", bunny, 1, 0.5, 60000,
                                 bunny_path.filename().string() +
@@ -709,6 +709,17 @@ void run_stiffness_study(const StiffnessOptions& options, std::ostream& progress
   const double density_for_claim = std::pow(w3000.omega * 0.001 / 2, 2);
   st.say("replayed Tejada & Ertl's claims on the bar");
 
+  // Images against ks: the two routes on one simulation scene's final states.
+  StiffnessImageOptions image_options;
+  image_options.scene = find_example(options.scene, "examples/bunny_simulation.json");
+  image_options.out = options.out;
+  image_options.ks =
+      quick ? std::vector<double>{3e4} : std::vector<double>{1e3, 3e3, 1e4, 3e4, 1e5, 3e5, 1e6};
+  image_options.size = quick ? 128 : 256;
+  image_options.timing_size = quick ? 128 : 512;
+  image_options.frames = quick ? 1 : 5;
+  const std::string images_md = run_stiffness_images(image_options, progress);
+
   // stiffness.csv
   {
     std::ostringstream csv;
@@ -814,7 +825,7 @@ void run_stiffness_study(const StiffnessOptions& options, std::ostream& progress
      << options.out.generic_string() << "` in " << fmt("%.0f", total) << " s on "
      << std::thread::hardware_concurrency()
      << " hardware threads. Figures: `stiffness.csv` (one row per figure), `stability.svg`, "
-        "`amplitude.svg`, `solvers.svg`.\n\n"
+        "`amplitude.svg`, `solvers.svg`, `images.csv`, `images.svg`, `images/`.\n\n"
      << "Models (voxel units: spacing 1, density 1, an interior node weighs 1; no gravity, no "
         "damping; start: a bend of 0.01 (t²) across the pinned axis plus 1e-6 noise, at rest):\n\n";
   for (const Model& m : models) {
@@ -908,6 +919,7 @@ void run_stiffness_study(const StiffnessOptions& options, std::ostream& progress
     md << "ks " << fmt("%g", ks) << " " << (ok ? "stable" : "unstable") << "; ";
   md << "it holds (implicit Euler only loses energy on the linearised system, by 1/(1 + ω²h²) per "
         "step and mode).\n";
+  md << "\n" << images_md;
   write_file_atomic((options.out / "report.md").string(), md.str());
   st.say("wrote " + (options.out / "stiffness.csv").string() + ", the charts and report.md in " +
          fmt("%.0f", total) + " s");

@@ -22,8 +22,12 @@
 // - cg: implicit Euler's CG iterations per step against h ω_max;
 // - local_global: local/global's error after k iterations against the converged implicit step;
 // - speed: ms per step of every integrator on every model;
-// - the seed papers' stability claims replayed on the bar.
-// `quick` runs a reduced set (the bar, two stiffnesses, short runs) in a few seconds, for tests.
+// - the seed papers' stability claims replayed on the bar;
+// - images: examples/bunny_simulation.json at ks 1e3 to 1e6, its final state rendered in image
+//   space (the deformation texture) and in object space (the mappings), both against the exact
+//   ground truth of the state (cli/stiffness_images.h; needs a current OpenGL context).
+// `quick` runs a reduced set (the bar, two stiffnesses, short runs, one small image run) in a few
+// seconds, for tests.
 #pragma once
 #include <filesystem>
 #include <iosfwd>
@@ -34,8 +38,10 @@ namespace raywarp {
 struct StiffnessOptions {
   std::filesystem::path out;  // folder for stiffness.csv, the charts and report.md
   bool quick = false;
-  // The bunny mesh; empty: examples/meshes/bunny.ply under the current folder or the source tree.
+  // The bunny mesh; empty: examples/meshes/bunny.ply under the current folder.
   std::filesystem::path bunny;
+  // The scene of the image part; empty: examples/bunny_simulation.json under the current folder.
+  std::filesystem::path scene;
 };
 
 // The header of stiffness.csv.

@@ -572,7 +572,7 @@ struct Simulation::Impl {
   Eigen::Vector3i cells;
   Eigen::Vector3d spacing;
   std::vector<int> node_of_sample;
-  std::vector<Eigen::Vector3d> rest;
+  SimulationBody body;  // its rest positions are the rest state
   physics::MassSpring system;
   std::unique_ptr<physics::Integrator> integrator;
   std::vector<std::vector<int>> drag_nodes;  // per drag
@@ -637,6 +637,7 @@ Simulation::Simulation(const SimulationParams& params, const Eigen::Vector3d& ha
     physics::TetMesh tets = physics::tetrahedralize(mask);
     m.system = physics::mass_spring(tets, params.density, params.ks, params.kd);
     sample_of = tets.sample;
+    m.body.tets = tets.tets;
     m.stats.tets = static_cast<int>(tets.tets.size());
     if (!tets.tets.empty()) {
       const physics::TetQuality q = physics::tet_quality(tets);
@@ -644,13 +645,18 @@ Simulation::Simulation(const SimulationParams& params, const Eigen::Vector3d& ha
       m.stats.max_aspect_ratio = q.max_aspect_ratio;
     }
   }
+  m.body.model = params.model;
+  m.body.half_extents = half_extents;
+  m.body.cells = m.cells;
+  m.body.spacing = m.spacing;
+  m.body.sample = sample_of;
   m.node_of_sample.assign(mask.size(), -1);
-  m.rest.resize(sample_of.size());
+  m.body.rest.resize(sample_of.size());
   for (size_t n = 0; n < sample_of.size(); ++n) {
     const Eigen::Vector3i& s = sample_of[n];
     m.node_of_sample[mask.index(s.x(), s.y(), s.z())] = static_cast<int>(n);
-    m.rest[n] = -half_extents + m.spacing.cwiseProduct(s.cast<double>());
-    m.system.x.segment<3>(3 * n) = m.rest[n];  // exactly on the lattice
+    m.body.rest[n] = -half_extents + m.spacing.cwiseProduct(s.cast<double>());
+    m.system.x.segment<3>(3 * n) = m.body.rest[n];  // exactly on the lattice
   }
   m.system.gravity = params.gravity;
 
@@ -696,9 +702,9 @@ Simulation::Simulation(const SimulationParams& params, const Eigen::Vector3d& ha
     std::vector<int> nodes;
     const Eigen::Vector3d lo = -half_extents + 2.0 * half_extents.cwiseProduct(drag.sub_min);
     const Eigen::Vector3d hi = -half_extents + 2.0 * half_extents.cwiseProduct(drag.sub_max);
-    for (size_t n = 0; n < m.rest.size(); ++n)
-      if ((m.rest[n].array() >= lo.array() - 1e-12).all() &&
-          (m.rest[n].array() <= hi.array() + 1e-12).all()) {
+    for (size_t n = 0; n < m.body.rest.size(); ++n)
+      if ((m.body.rest[n].array() >= lo.array() - 1e-12).all() &&
+          (m.body.rest[n].array() <= hi.array() + 1e-12).all()) {
         nodes.push_back(static_cast<int>(n));
         m.system.pin(static_cast<int>(n));
       }
@@ -737,7 +743,7 @@ void Simulation::run(long every, const Keep& keep, Interrupter* interrupter) {
       if (m.drag_nodes[d].empty()) continue;
       const Eigen::Vector3d offset = m.params.drags[d].offset_at(t_next);
       targets.clear();
-      for (int n : m.drag_nodes[d]) targets.push_back(m.rest[n] + offset);
+      for (int n : m.drag_nodes[d]) targets.push_back(m.body.rest[n] + offset);
       m.system.move_pinned(m.drag_nodes[d], targets);
     }
     const physics::StepResult r = m.integrator->step(m.system, m.params.dt);
@@ -747,7 +753,7 @@ void Simulation::run(long every, const Keep& keep, Interrupter* interrupter) {
     m.stats.cg_iterations += r.iterations;
     m.stats.cg_capped += r.hit_cap;
     for (int n = 0; n < m.system.nodes(); ++n) {
-      const double moved = (m.system.position(n) - m.rest[n]).norm();
+      const double moved = (m.system.position(n) - m.body.rest[n]).norm();
       if (!(moved <= limit))
         throw Error("simulation: " + std::string(m.integrator->name()) + ": step " +
                     std::to_string(step) + " (t = " + shortest_text(step * m.params.dt) +
@@ -774,12 +780,13 @@ std::vector<Eigen::Vector3d> Simulation::positions() const {
   return out;
 }
 
-const std::vector<Eigen::Vector3d>& Simulation::rest() const { return impl_->rest; }
+const std::vector<Eigen::Vector3d>& Simulation::rest() const { return impl_->body.rest; }
+const SimulationBody& Simulation::body() const { return impl_->body; }
 
 std::unique_ptr<Deformer> Simulation::deformer(std::vector<Eigen::Vector3d> positions) const {
-  if (positions.size() != impl_->rest.size())
+  if (positions.size() != impl_->body.rest.size())
     throw Error("simulation: a state of " + std::to_string(positions.size()) +
-                " nodes for a body of " + std::to_string(impl_->rest.size()));
+                " nodes for a body of " + std::to_string(impl_->body.rest.size()));
   return std::make_unique<LatticeDeformer>(impl_->params.model, impl_->h, impl_->cells,
                                            impl_->node_of_sample, positions, impl_->pinned_faces,
                                            impl_->description);

@@ -108,6 +108,20 @@ struct SimulationStats {
   double seconds = 0;      // building and running
 };
 
+// The body's lattice: what the object-space mappings bind to and what a tetrahedral renderer
+// walks. Box frame, object units.
+struct SimulationBody {
+  SimModel model = SimModel::grid;
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();
+  Eigen::Vector3i cells = Eigen::Vector3i::Zero();  // lattice cells per axis
+  Eigen::Vector3d spacing = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> rest;    // each node's rest position: -h + sample * spacing
+  std::vector<Eigen::Vector3i> sample;  // each node's lattice sample (i, j, k)
+  // tets: the Kuhn tetrahedra, four node indices each of positive signed volume
+  // (n1 - n0)·((n2 - n0) × (n3 - n0)) > 0 at rest; empty for the grid model.
+  std::vector<std::array<int, 4>> tets;
+};
+
 class Simulation {
  public:
   // Builds the body. Throws Error on a body with no cell (the mesh part is thinner than the
@@ -127,6 +141,7 @@ class Simulation {
   // The node positions (box frame) now, and at rest.
   std::vector<Eigen::Vector3d> positions() const;
   const std::vector<Eigen::Vector3d>& rest() const;
+  const SimulationBody& body() const;
   // The deformation the node positions give (one position per node, box frame).
   std::unique_ptr<Deformer> deformer(std::vector<Eigen::Vector3d> positions) const;
   const SimulationStats& stats() const;

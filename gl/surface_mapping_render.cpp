@@ -24,7 +24,7 @@ const char* const kVertexSource = R"(// Mosegaard & Sorensen 2006 eq. 9: library
 uniform sampler2D u_nodes;       // texel 2i: surface node i's position, 2i + 1: its unit normal
 uniform isampler2D u_triangles;  // texel t: the surface nodes of triangle t
 uniform bool u_interpolated;     // eq. 8's frame (curvature correction), else eq. 6's
-layout(location = 0) in vec3 a_binding;  // (triangle, u, v)
+layout(location = 0) in vec3 a_binding;  // (triangle or -1, u, v)
 layout(location = 1) in vec3 a_offset;   // (o.T, o.N, o.B)
 layout(location = 2) in vec3 a_normal;   // the rest vertex normal in the same frame
 out vec3 v_position;
@@ -35,6 +35,11 @@ ivec2 texel(int i) { return ivec2(i % kWidth, i / kWidth); }
 vec3 node(int i) { return texelFetch(u_nodes, texel(i), 0).xyz; }
 
 void map_vertex(out vec3 position, out vec3 normal) {
+  if (a_binding.x < 0.0) {  // not bound: stays put (offset: the rest position)
+    position = a_offset;
+    normal = a_normal;
+    return;
+  }
   ivec3 n = texelFetch(u_triangles, texel(int(a_binding.x)), 0).xyz;
   vec3 p1 = node(2 * n.x), p2 = node(2 * n.y), p3 = node(2 * n.z);
   float u = a_binding.y, v = a_binding.z;

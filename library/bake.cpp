@@ -683,7 +683,13 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     for (std::string& n : sim_notes) report.warnings.push_back({"deformer_note", std::move(n)});
     report.deformer = out.deformer->describe();
     const SimulationStats& st = sim.stats();
-    report.simulation = SimulationReport{st, state.steps, state.cg_iterations, state.cg_capped};
+    report.simulation =
+        SimulationReport{st,
+                         std::make_shared<const SimulationBody>(sim.body()),
+                         std::make_shared<const std::vector<Eigen::Vector3d>>(state.positions),
+                         state.steps,
+                         state.cg_iterations,
+                         state.cg_capped};
     StageReport s;
     s.stage = Stage::Simulation;
     s.source = source;

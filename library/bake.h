@@ -66,6 +66,10 @@ struct StageReport {
 // A simulation deformer's body and run (stage Simulation).
 struct SimulationReport {
   SimulationStats body;  // lattice, nodes, springs, tets and their quality, pins
+  // The lattice at rest and the node positions of the baked state (box frame): what the
+  // object-space mappings bind to (library/surface_mapping.h).
+  std::shared_ptr<const SimulationBody> lattice;
+  std::shared_ptr<const std::vector<Eigen::Vector3d>> state;
   long steps = 0;
   long cg_iterations = 0;  // implicit Euler, over all steps
   long cg_capped = 0;      // implicit Euler solves stopped at the iteration cap

@@ -192,10 +192,13 @@ const char* basis_name(SurfaceBasis basis) {
 
 SurfaceBinding bind_surface(const Mesh& mesh, const std::vector<Eigen::Vector3d>& rest_nodes,
                             const std::vector<NodeTriangle>& triangles, SurfaceBasis basis,
-                            BindStats* stats) {
+                            BindStats* stats, const std::vector<char>* moves) {
   const auto start = std::chrono::steady_clock::now();
   const long n = static_cast<long>(mesh.V.rows());
   if (n == 0) throw Error("surface mapping: the detailed mesh has no vertices");
+  if (moves && static_cast<long>(moves->size()) != n)
+    throw Error("surface mapping: " + std::to_string(moves->size()) +
+                " vertex flags for a mesh of " + std::to_string(n) + " vertices");
   if (triangles.empty()) throw Error("surface mapping: the coarse surface has no triangles");
   const int node_count = static_cast<int>(rest_nodes.size());
   for (size_t t = 0; t < triangles.size(); ++t)
@@ -263,6 +266,13 @@ SurfaceBinding bind_surface(const Mesh& mesh, const std::vector<Eigen::Vector3d>
 
   for_each_vertex(n, [&](long i) {
     const Eigen::Vector3d p = mesh.V.row(i).transpose();
+    if (moves && !(*moves)[i]) {
+      b.triangle[i] = -1;
+      b.weights[i].setZero();
+      b.offset[i] = p;
+      b.normal[i] = vertex_normal.row(i).transpose();
+      return;
+    }
     const TriangleBvh::Nearest nearest = bvh.nearest(p);
     const int first = usable[nearest.triangle];
     int best = first;
@@ -313,12 +323,16 @@ SurfaceBinding bind_surface(const Mesh& mesh, const std::vector<Eigen::Vector3d>
     *stats = BindStats{};
     double sum = 0.0;
     for (long i = 0; i < n; ++i) {
+      if (b.triangle[i] < 0) {
+        ++stats->fixed;
+        continue;
+      }
       stats->max_distance = std::max(stats->max_distance, distance[i]);
       sum += distance[i];
       stats->ties += tied[i];
       stats->outside += outside[i];
     }
-    stats->mean_distance = sum / double(n);
+    stats->mean_distance = n > stats->fixed ? sum / double(n - stats->fixed) : 0.0;
     stats->degenerate_triangles = static_cast<long>(triangles.size() - usable.size());
     stats->seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -352,6 +366,10 @@ std::vector<Eigen::Vector3d> deform(const SurfaceBinding& binding,
                                                    : std::vector<Eigen::Vector3d>{};
   std::vector<Eigen::Vector3d> out(binding.size());
   for_each_vertex(static_cast<long>(binding.size()), [&](long i) {
+    if (binding.triangle[i] < 0) {
+      out[i] = binding.offset[i];
+      return;
+    }
     const SurfaceFrame f = surface_frame(binding, i, deformed_nodes, normals);
     const Eigen::Vector3d& o = binding.offset[i];
     out[i] = f.reference + o.x() * f.T + o.y() * f.N + o.z() * f.B;
@@ -367,9 +385,12 @@ std::vector<Eigen::Vector3d> deform_normals(const SurfaceBinding& binding,
                                                    : std::vector<Eigen::Vector3d>{};
   std::vector<Eigen::Vector3d> out(binding.size());
   for_each_vertex(static_cast<long>(binding.size()), [&](long i) {
-    const SurfaceFrame f = surface_frame(binding, i, deformed_nodes, normals);
-    const Eigen::Vector3d& c = binding.normal[i];
-    const Eigen::Vector3d n = c.x() * f.T + c.y() * f.N + c.z() * f.B;
+    Eigen::Vector3d n = binding.normal[i];
+    if (binding.triangle[i] >= 0) {
+      const SurfaceFrame f = surface_frame(binding, i, deformed_nodes, normals);
+      const Eigen::Vector3d& c = binding.normal[i];
+      n = c.x() * f.T + c.y() * f.N + c.z() * f.B;
+    }
     const double length = n.norm();
     out[i] = length > 0.0 ? Eigen::Vector3d(n / length) : n;
   });
@@ -385,6 +406,25 @@ Mesh deform_mesh(const SurfaceBinding& binding, const Mesh& mesh,
   Mesh out = mesh;
   for (size_t i = 0; i < v.size(); ++i) out.V.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
   return out;
+}
+
+BodySurface simulation_body_surface(const SimulationBody& body,
+                                    const std::vector<Eigen::Vector3d>& state, const Box& box,
+                                    const Mesh& mesh) {
+  if (state.size() != body.rest.size())
+    throw Error("surface mapping: a state of " + std::to_string(state.size()) +
+                " nodes for a body of " + std::to_string(body.rest.size()));
+  BodySurface s;
+  for (size_t n = 0; n < body.rest.size(); ++n) {
+    s.rest.push_back(box.to_object(body.rest[n]));
+    s.moved.push_back(box.to_object(state[n]));
+  }
+  s.triangles = body.model == SimModel::tets ? boundary_triangles(body.tets)
+                                             : grid_boundary_triangles(lattice_cells(body.sample));
+  s.moves.resize(static_cast<size_t>(mesh.V.rows()));
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    s.moves[i] = box.contains(mesh.V.row(i).transpose()) ? 1 : 0;
+  return s;
 }
 
 }  // namespace raywarp

@@ -39,6 +39,8 @@
 #include <array>
 #include <vector>
 
+#include "base/box.h"
+#include "deformers/simulation.h"
 #include "library/mesh.h"
 
 namespace raywarp {
@@ -77,8 +79,10 @@ struct SurfaceBinding {
   SurfaceBasis basis = SurfaceBasis::Triangle;
   int node_count = 0;                   // nodes of the coarse body it was bound against
   std::vector<NodeTriangle> triangles;  // the coarse boundary surface, node indices
-  // Per vertex of the detailed mesh:
-  std::vector<int> triangle;             // index into `triangles`
+  // Per vertex of the detailed mesh. A vertex left out of the binding (bind_surface's `moves`)
+  // has triangle -1 and stays put: its offset is its rest position and its normal the rest
+  // normal, in the mesh's frame.
+  std::vector<int> triangle;             // index into `triangles`, or -1
   std::vector<Eigen::Vector2d> weights;  // (u, v): r = p1 + u (p2 - p1) + v (p3 - p1)
   std::vector<Eigen::Vector3d> offset;   // (o·T, o·N, o·B) in the basis's frame at rest
   std::vector<Eigen::Vector3d> normal;   // the rest vertex normal in the same frame
@@ -93,6 +97,7 @@ struct BindStats {
   long ties = 0;                  // vertices with more than one nearest triangle (see bind_surface)
   long outside = 0;               // vertices whose projection lies outside their triangle
   long degenerate_triangles = 0;  // zero-area coarse triangles, never chosen
+  long fixed = 0;                 // vertices left out (`moves`), which stay put
 };
 
 // Binds every vertex of `mesh` to its nearest triangle of `triangles` (nodes at `rest_nodes`),
@@ -103,13 +108,17 @@ struct BindStats {
 // deepest inside it (the largest least barycentric weight) wins, then the lowest index. So the
 // choice is deterministic (and independent of threads); a tie with a triangle elsewhere on the
 // surface falls to the tree's order. Zero-area triangles (|e1 x e2| <= 1e-12 max|e|^2) are never
-// chosen. Throws Error for an empty mesh, no usable triangle, or a node index out of range.
+// chosen. `moves` (one flag per vertex; null: all) leaves the vertices flagged 0 out: they stay
+// put (a mesh only part of which the coarse body holds, as a box's part). The distance figures
+// are over the bound vertices. Throws Error for an empty mesh, no usable triangle, a node index
+// out of range, or `moves` of another size.
 SurfaceBinding bind_surface(const Mesh& mesh, const std::vector<Eigen::Vector3d>& rest_nodes,
                             const std::vector<NodeTriangle>& triangles, SurfaceBasis basis,
-                            BindStats* stats = nullptr);
+                            BindStats* stats = nullptr, const std::vector<char>* moves = nullptr);
 
 // The frame of a vertex's triangle (eq. 6, or eq. 8 with `normals` = node_normals of `nodes`;
-// `normals` is not read for the triangle basis) and its reference point.
+// `normals` is not read for the triangle basis) and its reference point. `vertex` must be bound
+// (triangle >= 0).
 struct SurfaceFrame {
   Eigen::Vector3d reference, T, N, B;
 };
@@ -133,5 +142,19 @@ std::vector<Eigen::Vector3d> deform_normals(const SurfaceBinding& binding,
 // error figures. Throws Error when the mesh is not the bound one (vertex count).
 Mesh deform_mesh(const SurfaceBinding& binding, const Mesh& mesh,
                  const std::vector<Eigen::Vector3d>& deformed_nodes);
+
+// A simulation box's body as the coarse surface of the mappings, in the mesh's (object) frame:
+// its nodes at rest and at `state` (box frame, as SimulationBody), the boundary of its tets
+// (tets model) or of its lattice cells (grid model), and the flags of the mesh's vertices inside
+// the box, the only ones the body moves (bind_surface's `moves`). Throws Error when `state` has
+// another node count than the body.
+struct BodySurface {
+  std::vector<Eigen::Vector3d> rest, moved;
+  std::vector<NodeTriangle> triangles;
+  std::vector<char> moves;
+};
+BodySurface simulation_body_surface(const SimulationBody& body,
+                                    const std::vector<Eigen::Vector3d>& state, const Box& box,
+                                    const Mesh& mesh);
 
 }  // namespace raywarp

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "cli/stiffness_images.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -62,7 +64,8 @@ std::string read(const fs::path& p) {
 TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
   std::random_device rd;
   const fs::path dir = fs::temp_directory_path() / ("raywarp_stiffness_" + std::to_string(rd()));
-  Result r = run("study --stiffness --quick --out " + dir.string());
+  Result r = run("study --stiffness --quick --out " + dir.string() + " " + RAYWARP_SOURCE_DIR +
+                 "/examples/bunny_simulation.json");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("stiffness ["), std::string::npos) << r.output;  // progress lines
   std::ifstream csv(dir / "stiffness.csv");
@@ -103,9 +106,42 @@ TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
   const std::string report = read(dir / "report.md");
   EXPECT_NE(report.find("Tejada & Ertl"), std::string::npos);
   EXPECT_NE(report.find("2.22 ms"), std::string::npos);
-  for (const char* svg : {"stability.svg", "amplitude.svg", "solvers.svg"}) {
+  for (const char* svg : {"stability.svg", "amplitude.svg", "solvers.svg", "images.svg"}) {
     EXPECT_NE(read(dir / svg).find("<svg"), std::string::npos) << svg;
   }
+
+  // The image part: one stiffness, three routes against the exact ground truth of its state.
+  std::ifstream images(dir / "images.csv");
+  std::getline(images, header);
+  EXPECT_EQ(header, raywarp::kStiffnessImagesCsvHeader);
+  const std::vector<std::string> image_columns = split(header);
+  ASSERT_EQ(image_columns.size(), 17u);
+  EXPECT_EQ(image_columns[7], "iou");
+  EXPECT_EQ(image_columns[8], "over_1pct_percent");
+  std::set<std::string> routes;
+  while (std::getline(images, line)) {
+    std::vector<std::string> f = split(line);
+    ASSERT_EQ(f.size(), image_columns.size()) << line;
+    routes.insert(f[1]);
+    EXPECT_EQ(f[0], "30000") << line;
+    EXPECT_GT(std::stod(f[5]), 0.5) << line;  // the drag moved the body
+    // Image space within the foundation's thresholds; object space measured against the same
+    // truth (its error is the mapping's own, recorded, with a loose bound).
+    if (f[1] == "image space") {
+      EXPECT_GE(std::stod(f[7]), 0.98) << line;
+      EXPECT_LE(std::stod(f[8]), 2.0) << line;
+      EXPECT_GT(std::stod(f[13]), 0) << line;  // D texels
+    } else {
+      EXPECT_GE(std::stod(f[7]), 0.9) << line;
+      EXPECT_GE(std::stod(f[11]), 0) << line;  // vertex error
+    }
+    EXPECT_GT(std::stod(f[10]), 0) << line;  // frame ms
+  }
+  EXPECT_EQ(routes, (std::set<std::string>{"image space", "object space (triangle)",
+                                           "object space (interpolated)"}));
+  for (const char* png : {"ks_30000_image.png", "ks_30000_object.png", "ks_30000_truth.png"})
+    EXPECT_TRUE(fs::exists(dir / "images" / png)) << png;
+  EXPECT_NE(report.find("Images against ks"), std::string::npos);
   fs::remove_all(dir);
 }
 
@@ -115,6 +151,9 @@ TEST(StiffnessStudy, BadOptionsExitTwo) {
   EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
   r = run("study --stiffness --stability --out /tmp/x");
   EXPECT_EQ(r.code, 2) << r.output;
+  r = run("study --stiffness --quick --out /tmp/x a.json b.json");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("at most one scene"), std::string::npos) << r.output;
 }
 
 }  // namespace

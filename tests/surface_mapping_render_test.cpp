@@ -86,6 +86,32 @@ TEST(SurfaceMappingRender, ShaderMatchesCpu) {
   EXPECT_GT(between, 1e-3 * diagonal);
 }
 
+// Left-out vertices (triangle -1) keep their rest position in the shader as on the CPU.
+TEST(SurfaceMappingRender, LeftOutVerticesStayPutInTheShader) {
+  context();
+  const Case s;
+  const double diagonal = mesh_bounds(s.mesh).diagonal().norm();
+  std::vector<char> moves(static_cast<size_t>(s.mesh.V.rows()));
+  for (Eigen::Index i = 0; i < s.mesh.V.rows(); ++i) moves[i] = s.mesh.V(i, 0) > 0.5 ? 1 : 0;
+  gl::SurfaceMappingRenderer renderer;
+  for (SurfaceBasis basis : kBases) {
+    const SurfaceBinding b =
+        bind_surface(s.mesh, s.body.nodes, s.triangles, basis, nullptr, &moves);
+    renderer.set_binding(b, s.mesh);
+    renderer.set_nodes(s.deformed);
+    const gl::SurfaceMappingRenderer::Mapped gpu = renderer.mapped_vertices();
+    const std::vector<Eigen::Vector3d> cpu = deform(b, s.deformed);
+    ASSERT_EQ(gpu.positions.size(), cpu.size());
+    double worst_fixed = 0, worst_moved = 0;
+    for (size_t i = 0; i < cpu.size(); ++i) {
+      const double e = (gpu.positions[i].cast<double>() - cpu[i]).norm();
+      (moves[i] ? worst_moved : worst_fixed) = std::max(moves[i] ? worst_moved : worst_fixed, e);
+    }
+    EXPECT_LE(worst_fixed, 1e-6 * diagonal) << basis_name(basis);
+    EXPECT_LE(worst_moved, 2e-6 * diagonal) << basis_name(basis);
+  }
+}
+
 TEST(SurfaceMappingRender, ImageMatchesCpuDeformedMesh) {
   context();
   const Case s;
