@@ -8,23 +8,17 @@
 #include "base/error.h"
 #include "base/parallel.h"
 #include "library/triangle_bvh.h"
+#include "verify/cpu_shading.h"
 
 namespace raywarp {
 
 namespace {
 
+using cpu_shading::check_image_size;
+using cpu_shading::put_colour;
+using cpu_shading::shade;
 using Vec3 = Eigen::Vector3d;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-
-// ---------------------------------------------------------------------------------------------
-// Shading: the same as shaders/shading.glsl, so that reference and GL images agree up to
-// rounding (its sRGB encoding: srgb_byte, library/image.h).
-
-// Headlight: the light comes from the eye along the ray.
-Vec3 shade(const Vec3& albedo, const Vec3& normal, const Vec3& ray_direction) {
-  double lambert = std::max(normal.dot(-ray_direction), 0.0);
-  return albedo * (0.2 + 0.8 * lambert);
-}
 
 Vec3 albedo_of(const RenderSettings& settings, HitKind kind) {
   switch (kind) {
@@ -36,18 +30,6 @@ Vec3 albedo_of(const RenderSettings& settings, HitKind kind) {
       break;
   }
   return settings.colour;
-}
-
-void put_colour(Image& image, int x, int y, const Vec3& linear_rgb) {
-  uint8_t* px = &image.rgba[4 * (static_cast<size_t>(y) * image.width + x)];
-  for (int c = 0; c < 3; ++c) px[c] = srgb_byte(linear_rgb[c]);
-  px[3] = 255;
-}
-
-void check_image_size(const char* who, int width, int height) {
-  if (width < 1 || height < 1 || width > 8192 || height > 8192)
-    throw Error(std::string(who) + ": image size " + std::to_string(width) + " x " +
-                std::to_string(height) + ": each side must be in [1, 8192]");
 }
 
 // ---------------------------------------------------------------------------------------------
