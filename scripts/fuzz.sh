@@ -8,9 +8,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 build=${2:-build-fuzz}
-# -O1, as the sanitizer build of .ci/run: a third of the -O2 compile time on 2 cores.
-RAYWARP_EXTRA_PACKAGES="clang libclang-rt-14-dev" bash scripts/setup.sh "$build" -DRAYWARP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++ \
-  "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -DNDEBUG" >/dev/null
+# A build folder configured with RAYWARP_FUZZ (.ci/run's sanitizer build, which also runs the unit
+# tests) is reused; otherwise one is configured for the fuzz targets alone, at -O1 as that build.
+if grep -q '^RAYWARP_FUZZ:BOOL=ON' "$build/CMakeCache.txt" 2>/dev/null; then
+  cmake --build "$build" -j "$(nproc 2>/dev/null || echo 2)" --target fuzz_scene fuzz_mesh fuzz_texture >/dev/null
+else
+  RAYWARP_EXTRA_PACKAGES="clang libclang-rt-14-dev lld" RAYWARP_BUILD_TARGETS="fuzz_scene fuzz_mesh fuzz_texture" \
+    bash scripts/setup.sh "$build" -DRAYWARP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++ -DRAYWARP_TESTS=OFF \
+    -DRAYWARP_BENCH=OFF "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -DNDEBUG" >/dev/null
+fi
 mkdir -p "$build/corpus/scene" "$build/corpus/mesh" "$build/corpus/texture" "$build/artifacts"
 # Seeds: every shipped scene; the shipped bunny and small meshes of each format, each behind
 # the byte that picks its format (0 ply, 1 obj, 2 stl, 3 off).

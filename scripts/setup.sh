@@ -4,7 +4,8 @@
 # them and libopenvdb-dev does not pull them in; libegl-mesa0 is Mesa's EGL driver (llvmpipe
 # without a GPU), which libegl1 only recommends.
 # Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
-# RAYWARP_EXTRA_PACKAGES (space-separated) adds packages to the list (scripts/fuzz.sh: clang).
+# RAYWARP_EXTRA_PACKAGES (space-separated) adds packages to the list (scripts/fuzz.sh: clang);
+# RAYWARP_BUILD_TARGETS (space-separated) builds only those targets.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -28,4 +29,6 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 jobs=$(nproc 2>/dev/null || echo 2)
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-cmake --build "$build" -j "$jobs"
+targets=()
+[ -n "${RAYWARP_BUILD_TARGETS:-}" ] && targets=(--target ${RAYWARP_BUILD_TARGETS})
+cmake --build "$build" -j "$jobs" "${targets[@]}"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # README command 2: set up, build, and run every test (ctest).
 # Usage: scripts/test.sh [BUILD_DIR] [extra cmake arguments...]
-# RAYWARP_TEST_LABELS='unit|smoke' runs only the tests with those labels (docs/testing.md).
+# RAYWARP_TEST_LABELS='unit|smoke' runs only the tests with those labels (docs/testing.md);
+# RAYWARP_TEST_EXCLUDE (a regular expression) leaves out the tests whose names match it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -26,4 +27,5 @@ fi
 cd "$build"
 labels=()
 [ -n "${RAYWARP_TEST_LABELS:-}" ] && labels=(-L "$RAYWARP_TEST_LABELS")
+[ -n "${RAYWARP_TEST_EXCLUDE:-}" ] && labels+=(-E "$RAYWARP_TEST_EXCLUDE")
 ctest --output-on-failure -j "$(nproc 2>/dev/null || echo 2)" "${labels[@]}"

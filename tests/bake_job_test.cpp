@@ -12,6 +12,7 @@
 #include "library/bake.h"
 #include "library/scene.h"
 #include "library/winding.h"
+#include "tests/sanitizer.h"
 
 namespace raywarp {
 namespace {
@@ -172,7 +173,7 @@ TEST(BakeJob, CancelledDistanceGridLeavesNothingBehind) {
   ASSERT_TRUE(threw) << "the bake finished before it was cancelled";
   const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
   std::printf("[figures] distance grid 384^3 of the dragon: cancel returned after %.1f ms\n", ms);
-#if defined(__SANITIZE_ADDRESS__)
+#if RAYWARP_UNDER_SANITIZER
   EXPECT_LT(ms, 1000.0);  // the sanitizers slow every poll's chunk of work several-fold
 #else
   EXPECT_LT(ms, 100.0);
@@ -245,7 +246,7 @@ TEST(BakeJob, EveryStageCancelsPromptly) {
     const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
     std::printf("[figures] %s, cancelled in \"%s\": returned after %.2f ms\n", c.scene.c_str(),
                 c.stage.c_str(), ms);
-#if defined(__SANITIZE_ADDRESS__)
+#if RAYWARP_UNDER_SANITIZER
     EXPECT_LT(ms, 1000.0) << c.stage;
 #else
     EXPECT_LT(ms, 100.0) << c.stage;

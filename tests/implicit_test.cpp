@@ -296,7 +296,9 @@ TEST(Implicit, ProgressReportsBothStagesAndCancels) {
   // Cancelled at the start, inside OpenVDB (its interrupter), and in the sign stage.
   const std::vector<std::pair<std::string, double>> cancel_points = {
       {"distance", 0.0}, {"distance", 0.2}, {"sign", 0.0}};
-  for (const auto& [cancel_stage, cancel_after] : cancel_points) {
+  for (const auto& point : cancel_points) {
+    const std::string& cancel_stage = point.first;
+    const double cancel_after = point.second;
     Interrupter* self = nullptr;
     Interrupter cancelling(
         [&](const std::string& stage, double fraction) {
