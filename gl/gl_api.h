@@ -74,7 +74,14 @@ namespace raywarp::gl {
   X(PFNGLFRAMEBUFFERTEXTURE2DPROC, glFramebufferTexture2D)       \
   X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, glCheckFramebufferStatus)   \
   X(PFNGLDRAWBUFFERSPROC, glDrawBuffers)                         \
-  X(PFNGLDELETEFRAMEBUFFERSPROC, glDeleteFramebuffers)
+  X(PFNGLDELETEFRAMEBUFFERSPROC, glDeleteFramebuffers)           \
+  X(PFNGLCLEARBUFFERIVPROC, glClearBufferiv)                     \
+  X(PFNGLGENQUERIESPROC, glGenQueries)                           \
+  X(PFNGLDELETEQUERIESPROC, glDeleteQueries)                     \
+  X(PFNGLBEGINQUERYPROC, glBeginQuery)                           \
+  X(PFNGLENDQUERYPROC, glEndQuery)                               \
+  X(PFNGLGETQUERYOBJECTUIVPROC, glGetQueryObjectuiv)             \
+  X(PFNGLTEXTUREBARRIERPROC, glTextureBarrier)
 
 #define RAYWARP_GL_DECLARE(type, name) extern type name;
 RAYWARP_GL_FUNCTIONS(RAYWARP_GL_DECLARE)
