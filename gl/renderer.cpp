@@ -121,6 +121,33 @@ void copy_mapping(Grid3<T>& to, const Grid3<T>& from) {
 
 }  // namespace
 
+Image read_back_image(int width, int height, const float clear[4], long* nonfinite) {
+  Image image(width, height);
+  std::vector<uint8_t> rgba(static_cast<size_t>(width) * height * 4);
+  std::vector<float> depth(static_cast<size_t>(width) * height);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
+  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  glReadBuffer(GL_COLOR_ATTACHMENT1);
+  glReadPixels(0, 0, width, height, GL_RED, GL_FLOAT, depth.data());
+  long bad_pixels = 0;
+  for (int y = 0; y < height; ++y) {
+    const size_t src = static_cast<size_t>(height - 1 - y) * width;
+    const size_t dst = static_cast<size_t>(y) * width;
+    for (int x = 0; x < width; ++x) {
+      const float z = depth[src + x];
+      const bool bad = std::isnan(z) || z == -std::numeric_limits<float>::infinity();
+      bad_pixels += bad;
+      image.depth[dst + x] = bad ? std::numeric_limits<float>::infinity() : z;
+      for (int c = 0; c < 4; ++c)
+        image.rgba[4 * (dst + x) + c] =
+            bad ? static_cast<uint8_t>(std::lround(clear[c] * 255.0f)) : rgba[4 * (src + x) + c];
+    }
+  }
+  if (nonfinite) *nonfinite = bad_pixels;
+  return image;
+}
+
 bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
   if (!traces_bounded(settings.sampling, b.has_cut, b.moves_nothing)) return false;
   if (b.step_bounds.empty())
@@ -545,30 +572,9 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   glFinish();
   auto stop = std::chrono::steady_clock::now();
 
-  // Read back; GL's row 0 is the bottom, raywarp's the top (docs/conventions.md#image-rows).
-  Image image(width, height);
-  std::vector<uint8_t> rgba(static_cast<size_t>(width) * height * 4);
-  std::vector<float> depth(static_cast<size_t>(width) * height);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadBuffer(GL_COLOR_ATTACHMENT0);
-  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-  glReadBuffer(GL_COLOR_ATTACHMENT1);
-  glReadPixels(0, 0, width, height, GL_RED, GL_FLOAT, depth.data());
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
   long nonfinite = 0;
-  for (int y = 0; y < height; ++y) {
-    size_t src = static_cast<size_t>(height - 1 - y) * width, dst = static_cast<size_t>(y) * width;
-    for (int x = 0; x < width; ++x) {
-      float z = depth[src + x];
-      bool bad = std::isnan(z) || z == -std::numeric_limits<float>::infinity();
-      nonfinite += bad;
-      image.depth[dst + x] = bad ? std::numeric_limits<float>::infinity() : z;
-      for (int c = 0; c < 4; ++c)
-        image.rgba[4 * (dst + x) + c] =
-            bad ? static_cast<uint8_t>(std::lround(background[c] * 255.0f))
-                : rgba[4 * (src + x) + c];
-    }
-  }
+  Image image = read_back_image(width, height, background, &nonfinite);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
   if (stats) {
     stats->milliseconds = std::chrono::duration<double, std::milli>(stop - start).count();
     stats->nonfinite_pixels = nonfinite;

@@ -24,6 +24,13 @@ struct FrameStats {
   long nonfinite_pixels = 0;  // NaN or Inf in colour or depth, replaced by background
 };
 
+// Reads the bound framebuffer's colour (attachment 0, RGBA8) and linear depth (attachment 1, R32F)
+// of width x height pixels into an Image, rows flipped (GL's row 0 is the bottom, raywarp's the
+// top: docs/conventions.md#image-rows); a NaN or -inf depth becomes +inf with the `clear` colour
+// (its channels in [0, 1] as stored), and `nonfinite` (if given) counts those pixels. The
+// renderers' common read-back.
+Image read_back_image(int width, int height, const float clear[4], long* nonfinite = nullptr);
+
 // Whether a box is ray cast by the `bounded` tracer under `settings`: traces_bounded decides it
 // (throws Error when it does and the box has no step bounds, or reads D through a texture map).
 bool uses_bounded(const BoxTextures& b, const RenderSettings& settings);

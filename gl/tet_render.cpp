@@ -999,30 +999,8 @@ Image TetRenderer::Impl::render(Mode mode, const Camera& camera, int width, int 
   const auto stop = std::chrono::steady_clock::now();
   glActiveTexture(GL_TEXTURE0);
 
-  // Read back; GL's row 0 is the bottom, raywarp's the top (docs/conventions.md#image-rows).
-  Image image(width, height);
-  std::vector<uint8_t> rgba(static_cast<size_t>(width) * height * 4);
-  std::vector<float> depth(static_cast<size_t>(width) * height);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadBuffer(GL_COLOR_ATTACHMENT0);
-  glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-  glReadBuffer(GL_COLOR_ATTACHMENT1);
-  glReadPixels(0, 0, width, height, GL_RED, GL_FLOAT, depth.data());
   long nonfinite = 0;
-  for (int y = 0; y < height; ++y) {
-    const size_t src = static_cast<size_t>(height - 1 - y) * width;
-    const size_t dst = static_cast<size_t>(y) * width;
-    for (int x = 0; x < width; ++x) {
-      const float z = depth[src + x];
-      const bool bad = std::isnan(z) || z == -inf;
-      nonfinite += bad;
-      image.depth[dst + x] = bad ? inf : z;
-      for (int c = 0; c < 4; ++c)
-        image.rgba[4 * (dst + x) + c] =
-            bad ? static_cast<uint8_t>(std::lround(clear_colour[c] * 255))
-                : rgba[4 * (src + x) + c];
-    }
-  }
+  Image image = read_back_image(width, height, clear_colour, &nonfinite);
   if (walk_stats) {
     TetWalkStats& w = *walk_stats;
     w = TetWalkStats{};
