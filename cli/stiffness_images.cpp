@@ -11,6 +11,7 @@
 
 #include "base/atomic_file.h"
 #include "base/error.h"
+#include "base/format.h"
 #include "cli/chart.h"
 #include "cli/pipeline.h"
 #include "gl/renderer.h"
@@ -32,12 +33,6 @@ const char* const kStiffnessImagesCsvHeader =
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string num(double v) { return std::isnan(v) ? "" : fmt("%.6g", v); }
 
@@ -62,9 +57,7 @@ double median_ms(const std::function<double()>& frame, int frames) {
   frame();  // warm-up: llvmpipe compiles the shaders at their first draw
   std::vector<double> ms;
   for (int f = 0; f < frames; ++f) ms.push_back(frame());
-  std::sort(ms.begin(), ms.end());
-  const size_t n = ms.size();
-  return n % 2 ? ms[n / 2] : 0.5 * (ms[n / 2 - 1] + ms[n / 2]);
+  return median(ms);
 }
 
 std::string ks_text(double ks) { return fmt("%g", ks); }

@@ -27,7 +27,8 @@ struct Result {
 };
 
 Result run(const std::string& args) {
-  std::string cmd = std::string(RAYWARP_BINARY) + " " + args + " 2>&1";
+  std::string cmd = RAYWARP_BINARY;
+  cmd.append(" ").append(args).append(" 2>&1");
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   std::array<char, 4096> buf;

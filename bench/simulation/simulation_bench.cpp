@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "base/format.h"
 #include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
@@ -25,16 +26,6 @@
 
 using namespace raywarp;
 namespace fs = std::filesystem;
-
-namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   int runs = 3, frames = 10, size = 512;
