@@ -4,11 +4,13 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "base/error.h"
+#include "base/format.h"
 #include "base/version.h"
 #include "cli/animate.h"
 #include "cli/export.h"
@@ -22,6 +24,7 @@
 #include "editor/editor.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "gl/tet_scene.h"
 #include "library/image.h"
 #include "library/scene.h"
 
@@ -41,6 +44,7 @@ struct RenderOptions {
   std::string cache_dir;
   bool no_cache = false;
   bool gif_only = false;
+  std::string route;  // empty: the scene's render.route
 };
 
 // The bake cache a command uses: --cache-dir, else the default folder; none with --no-cache or
@@ -94,6 +98,15 @@ int run_render(const RenderOptions& opt) {
     return run_animation(opt);
   }
   Scene scene = load_scene(opt.scene);
+  if (!opt.route.empty()) {
+    scene.render.route = opt.route;
+    if (opt.route == "tets")
+      for (size_t i = 0; i < scene.boxes.size(); ++i)
+        if (scene.boxes[i].deformer.type != "simulation")
+          throw Error("--route tets: " + opt.scene + ": boxes[" + std::to_string(i) +
+                      "].deformer.type is \"" + scene.boxes[i].deformer.type +
+                      "\"; the tetrahedral route shows simulation boxes only");
+  }
   Camera camera;
   if (!opt.camera.empty())
     camera = load_camera(opt.camera);
@@ -112,20 +125,64 @@ int run_render(const RenderOptions& opt) {
   report_cache(cache.get());
   auto context = gl::create_context(opt.context);
   std::cerr << "context: " << context->description() << "\n";
-  gl::Renderer renderer;
-  renderer.set_mesh(prepared.mesh());
-  renderer.set_boxes(prepared.textures());
   gl::FrameStats stats;
-  Image image = renderer.render(camera, size.x(), size.y(), scene.render, &stats);
-  std::cerr << "frame: " << size.x() << "x" << size.y() << " in " << stats.milliseconds << " ms, "
-            << renderer.texture_bytes() / (1 << 20) << " MiB of textures\n";
+  std::function<double()> frame;  // renders one more frame, its milliseconds
+  Image image;
+  std::unique_ptr<gl::Renderer> renderer;
+  std::vector<TetBody> bodies;
+  std::unique_ptr<gl::TetSceneRenderer> tet_renderer;
+  gl::TetSceneStats ts;
+  if (scene.render.route == "tets") {
+    std::vector<const BoxTextures*> boxes;
+    std::vector<const TetBody*> body_list;
+    for (size_t i = 0; i < prepared.boxes.size(); ++i) {
+      bodies.push_back(build_tet_body(prepared.boxes[i], prepared.mesh(), scene.render.tets));
+      const TetBody& b = bodies.back();
+      std::cerr << "box " << i << ": tetrahedral route, " << scene.render.tets.mode
+                << " mode: " << b.tets.size() << " tetrahedra, " << b.positions.size()
+                << " nodes (cells split " << b.refine << "^3) in " << fmt("%.2f", b.seconds)
+                << " s\n";
+    }
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      boxes.push_back(&prepared.boxes[i].textures);
+      body_list.push_back(&bodies[i]);
+    }
+    tet_renderer = std::make_unique<gl::TetSceneRenderer>(prepared.mesh(), boxes, body_list,
+                                                          scene.render.tets);
+    if (scene.render.tets.mode == "volume")
+      std::cerr << "pre-integration tables: "
+                << fmt("%.1f", tet_renderer->table_bytes() / 1048576.0) << " MiB in "
+                << fmt("%.2f", tet_renderer->table_seconds()) << " s\n";
+    frame = [&] {
+      image = tet_renderer->render(camera, size.x(), size.y(), scene.render, &ts);
+      return ts.raster_ms + ts.walk_ms;
+    };
+    frame();
+    std::cerr << "frame: " << size.x() << "x" << size.y() << " in "
+              << fmt("%.1f", ts.raster_ms + ts.walk_ms) << " ms (mesh " << fmt("%.1f", ts.raster_ms)
+              << ", walk " << fmt("%.1f", ts.walk_ms) << ", " << ts.walk.passes << " peeling passes"
+              << (ts.walk.pass_cap_reached ? ", pass cap reached" : "")
+              << (ts.walk.capped > 0 ? ", " + std::to_string(ts.walk.capped) + " rays capped" : "")
+              << "), " << fmt("%.1f", tet_renderer->mesh_bytes() / 1048576.0)
+              << " MiB of tetrahedra\n";
+  } else {
+    renderer = std::make_unique<gl::Renderer>();
+    renderer->set_mesh(prepared.mesh());
+    renderer->set_boxes(prepared.textures());
+    frame = [&] {
+      image = renderer->render(camera, size.x(), size.y(), scene.render, &stats);
+      return stats.milliseconds;
+    };
+    frame();
+    std::cerr << "frame: " << size.x() << "x" << size.y() << " in " << stats.milliseconds << " ms, "
+              << renderer->texture_bytes() / (1 << 20) << " MiB of textures\n";
+  }
   if (opt.time_frames > 0) {
     // The first frame above also paid for llvmpipe's shader compilation; time the rest.
+    const Image first = image;
     std::vector<double> ms;
-    for (int f = 0; f < opt.time_frames; ++f) {
-      renderer.render(camera, size.x(), size.y(), scene.render, &stats);
-      ms.push_back(stats.milliseconds);
-    }
+    for (int f = 0; f < opt.time_frames; ++f) ms.push_back(frame());
+    image = first;
     std::sort(ms.begin(), ms.end());
     std::cerr << "frames: median " << ms[ms.size() / 2] << " ms of " << opt.time_frames
               << " after the first (min " << ms.front() << ", max " << ms.back() << ")\n";
@@ -317,6 +374,12 @@ int main(int argc, char** argv) {
                      "Bake cache folder (default $RAYWARP_CACHE_DIR, else "
                      "$XDG_CACHE_HOME/raywarp, else ~/.cache/raywarp)");
   render->add_flag("--no-cache", ropt.no_cache, "Bake everything; read and store no cache entry");
+  render
+      ->add_option("--route", ropt.route,
+                   "How boxes are shown, overriding the scene's render.route: texture (the "
+                   "deformation texture, ray cast) or tets (a simulation box's tetrahedra walked "
+                   "by the tetrahedral ray caster, render.tets; docs/tet_render.md)")
+      ->check(CLI::IsMember({"texture", "tets"}));
   render->footer(
       "Image size: --width/--height, else the camera's width/height, else the scene's render "
       "block.\n"

@@ -16,9 +16,11 @@
 #include "cli/pipeline.h"
 #include "gl/renderer.h"
 #include "gl/surface_mapping_render.h"
+#include "gl/tet_scene.h"
 #include "library/image.h"
 #include "library/scene.h"
 #include "library/surface_mapping.h"
+#include "library/tet_body.h"
 #include "verify/ground_truth.h"
 
 namespace fs = std::filesystem;
@@ -28,7 +30,7 @@ namespace raywarp {
 const char* const kStiffnessImagesCsvHeader =
     "ks,route,nodes,steps,sim_seconds,max_node_displacement,folded_percent,iou,over_1pct_percent,"
     "mean_depth_error,frame_ms,vertex_error_max,vertex_error_mean,d_texels,d_mib,d_seconds,"
-    "d_error_voxels";
+    "d_error_voxels,gpu_mib,tets,tet_refine";
 
 namespace {
 
@@ -41,6 +43,9 @@ struct Route {
   ImageComparison c;
   double frame_ms = NAN;
   double vertex_max = NAN, vertex_mean = NAN;  // object space: |mapped - F(vertex)|
+  double gpu_mib = NAN;                        // what the route holds on the GPU
+  long tets = 0;                               // tetrahedral route: tetrahedra walked
+  int refine = 0;                              // and the split of the lattice cells
 };
 
 struct Result {
@@ -128,6 +133,30 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
       Route route{"image space", compare_images(image, truth.image, threshold)};
       route.frame_ms = frame_median(renderer, camera, options.timing_size, options.timing_size,
                                     scene.render, options.frames);
+      route.gpu_mib = renderer.texture_bytes() / 1048576.0;
+      r.routes.push_back(route);
+    }
+
+    // The tetrahedral route: the body's tetrahedra (cells split as render.tets.refine says, its
+    // default: at most kTetAutoCellVoxels voxels) mapped by F and walked, surface mode.
+    {
+      TetDisplaySpec spec = scene.render.tets;
+      spec.mode = "surface";
+      const TetBody tet_body = build_tet_body(box, prepared.mesh(), spec);
+      gl::TetSceneRenderer renderer(prepared.mesh(), {&box.textures}, {&tet_body}, spec);
+      const Image image = renderer.render(camera, options.size, options.size, scene.render);
+      write_png(stem + "_tets.png", image);
+      Route route{"tet walk (surface)", compare_images(image, truth.image, threshold)};
+      route.frame_ms = median_ms(
+          [&] {
+            gl::TetSceneStats stats;
+            renderer.render(camera, options.timing_size, options.timing_size, scene.render, &stats);
+            return stats.raster_ms + stats.walk_ms;
+          },
+          options.frames);
+      route.gpu_mib = renderer.mesh_bytes() / 1048576.0;
+      route.tets = renderer.tet_count();
+      route.refine = tet_body.refine;
       r.routes.push_back(route);
     }
 
@@ -153,10 +182,12 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
         gl::SurfaceMappingRenderer renderer;
         renderer.set_binding(binding, mesh);
         renderer.set_nodes(surface.moved);
+        const double gpu_mib = renderer.gpu_bytes() / 1048576.0;
         const Image image = renderer.render(camera, options.size, options.size, scene.render);
         if (basis == SurfaceBasis::Interpolated) write_png(stem + "_object.png", image);
         Route route{std::string("object space (") + basis_name(basis) + ")",
                     compare_images(image, truth.image, threshold)};
+        route.gpu_mib = gpu_mib;
         route.vertex_max = worst;
         route.vertex_mean = count ? sum / double(count) : 0.0;
         route.frame_ms = median_ms(
@@ -189,7 +220,9 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
           << num(route.c.mean_depth_error) << "," << num(route.frame_ms) << ","
           << num(route.vertex_max) << "," << num(route.vertex_mean) << ","
           << (image ? std::to_string(r.d_texels) : "") << "," << (image ? num(r.d_mib) : "") << ","
-          << (image ? num(r.d_seconds) : "") << "," << (image ? num(r.d_error_voxels) : "") << "\n";
+          << (image ? num(r.d_seconds) : "") << "," << (image ? num(r.d_error_voxels) : "") << ","
+          << num(route.gpu_mib) << "," << (route.tets ? std::to_string(route.tets) : "") << ","
+          << (route.refine ? std::to_string(route.refine) : "") << "\n";
     }
   write_file_atomic((options.out / "images.csv").string(), csv.str());
 
@@ -233,12 +266,18 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
      << "the deformation texture ray cast. Object space: Mosegaard & Sørensen's mappings, the "
         "mesh's vertices in the box bound to the body's boundary surface at rest, moved in a "
         "vertex shader (vertex error: |mapped − F(vertex)| over those vertices, object units). "
+        "Tet walk: the body's lattice cells split k³ (k in the last table), Kuhn tetrahedra mapped "
+        "by F, carrying the mesh part's signed distance f at rest, walked by the tetrahedral ray "
+        "caster (Tejada & Ertl 2005, section 5) in surface mode (f's zero set, linear per "
+        "tetrahedron) and composited with the rasterised mesh outside the box. GPU memory: what "
+        "each route holds for the box (image space: the distance grid and D; object space: the "
+        "binding and the nodes; tet walk: the tetrahedra's topology, planes and gradients). "
         "Frame times: median of "
      << options.frames << " frames at " << options.timing_size
      << "² (llvmpipe here). Figures: `images.csv`, `images.svg`, `images/`.\n\n"
      << "| ks | largest node displacement | folded | route | IoU | > 1 % diag | mean depth "
-        "error | vertex error max / mean | frame ms |\n"
-     << "| ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |\n";
+        "error | vertex error max / mean | frame ms | GPU MiB |\n"
+     << "| ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const Result& r : results)
     for (const Route& route : r.routes)
       md << "| " << ks_text(r.ks) << " | " << fmt("%.3g", r.max_displacement) << " | "
@@ -248,12 +287,19 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
          << (std::isnan(route.vertex_max)
                  ? std::string("-")
                  : fmt("%.3g", route.vertex_max) + " / " + fmt("%.3g", route.vertex_mean))
-         << " | " << fmt("%.1f", route.frame_ms) << " |\n";
+         << " | " << fmt("%.1f", route.frame_ms) << " | " << fmt("%.1f", route.gpu_mib) << " |\n";
   md << "\nThe image-space route's D per ks:\n\n| ks | D texels | MiB | bake s | interpolation "
         "error (voxels) |\n| ---: | ---: | ---: | ---: | ---: |\n";
   for (const Result& r : results)
     md << "| " << ks_text(r.ks) << " | " << r.d_texels << " | " << fmt("%.1f", r.d_mib) << " | "
        << fmt("%.2f", r.d_seconds) << " | " << fmt("%.3f", r.d_error_voxels) << " |\n";
+  md << "\nThe tetrahedral route's mesh per ks:\n\n| ks | cells split | tetrahedra |\n| ---: | "
+        "---: "
+        "| ---: |\n";
+  for (const Result& r : results)
+    for (const Route& route : r.routes)
+      if (route.tets > 0)
+        md << "| " << ks_text(r.ks) << " | " << route.refine << "³ | " << route.tets << " |\n";
   md << "\n";
   return md.str();
 }

@@ -795,4 +795,66 @@ std::unique_ptr<Deformer> Simulation::deformer(std::vector<Eigen::Vector3d> posi
 const SimulationStats& Simulation::stats() const { return impl_->stats; }
 const SimulationParams& Simulation::params() const { return impl_->params; }
 
+namespace {
+
+// The cells (lower corner samples) whose 8 corners are nodes of the body.
+std::vector<Eigen::Vector3i> body_cells(const SimulationBody& body) {
+  const Eigen::Vector3i samples = body.cells + Eigen::Vector3i::Ones();
+  std::vector<std::uint8_t> node(static_cast<size_t>(samples.prod()), 0);
+  auto index = [&](const Eigen::Vector3i& s) {
+    return static_cast<size_t>(s.x()) +
+           static_cast<size_t>(samples.x()) *
+               (static_cast<size_t>(s.y()) + static_cast<size_t>(samples.y()) * s.z());
+  };
+  for (const Eigen::Vector3i& s : body.sample) node[index(s)] = 1;
+  std::vector<Eigen::Vector3i> cells;
+  for (int k = 0; k < body.cells.z(); ++k)
+    for (int j = 0; j < body.cells.y(); ++j)
+      for (int i = 0; i < body.cells.x(); ++i) {
+        bool all = true;
+        for (int c = 0; c < 8 && all; ++c)
+          all = node[index({i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)})] != 0;
+        if (all) cells.emplace_back(i, j, k);
+      }
+  return cells;
+}
+
+}  // namespace
+
+long refined_tet_count(const SimulationBody& body, int k) {
+  return 6L * k * k * k * static_cast<long>(body_cells(body).size());
+}
+
+SimulationBody refine_body(const SimulationBody& body, int k, long max_tets) {
+  if (k < 1 || k > 8) throw Error("refine: " + std::to_string(k) + ": must be in [1, 8]");
+  const std::vector<Eigen::Vector3i> cells = body_cells(body);
+  const long count = 6L * k * k * k * static_cast<long>(cells.size());
+  if (count > max_tets)
+    throw Error("refine: " + std::to_string(k) + " gives " + std::to_string(count) +
+                " tetrahedra, more than the " + std::to_string(max_tets) +
+                " allowed: lower it (or the simulation's resolution)");
+  const Eigen::Vector3i fine_cells = body.cells * k;
+  const Eigen::Vector3d fine_spacing = body.spacing / k;
+  Grid3<std::uint8_t> mask(-body.half_extents - 0.5 * fine_spacing, fine_spacing,
+                           fine_cells + Eigen::Vector3i::Ones(), 0);
+  for (const Eigen::Vector3i& c : cells)
+    for (int dk = 0; dk <= k; ++dk)
+      for (int dj = 0; dj <= k; ++dj)
+        for (int di = 0; di <= k; ++di) mask.at(c.x() * k + di, c.y() * k + dj, c.z() * k + dk) = 1;
+  // Every finer cell of a cell that is not the body's has a corner strictly inside that cell
+  // (k >= 2), which stays unmarked, so tetrahedralize splits exactly the body's cells.
+  physics::TetMesh tets = physics::tetrahedralize(mask);
+  SimulationBody out;
+  out.model = body.model;
+  out.half_extents = body.half_extents;
+  out.cells = fine_cells;
+  out.spacing = fine_spacing;
+  out.sample = std::move(tets.sample);
+  out.rest.reserve(out.sample.size());
+  for (const Eigen::Vector3i& s : out.sample)
+    out.rest.push_back(-body.half_extents + fine_spacing.cwiseProduct(s.cast<double>()));
+  out.tets = std::move(tets.tets);
+  return out;
+}
+
 }  // namespace raywarp

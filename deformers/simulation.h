@@ -155,6 +155,16 @@ class Simulation {
 // The most nodes a body may have (about 0.4 GiB of state and matrices for implicit Euler).
 constexpr int kMaxSimulationNodes = 400000;
 
+// The body's lattice with every cell split into k^3 cells (k in [1, 8]): the finer lattice's
+// rest nodes, samples (in units of spacing / k) and Kuhn tetrahedra, split as `tets` is (the same
+// six axis orders), so each finer tetrahedron lies inside one of the body's and a map linear on
+// those is linear on these. The cells split are the body's: those whose 8 corners are nodes (for
+// the tets model, the cells of its tetrahedra). Throws Error when the result would have more
+// than `max_tets` tetrahedra, naming the count.
+SimulationBody refine_body(const SimulationBody& body, int k, long max_tets);
+// How many tetrahedra refine_body(body, k, ...) makes: 6 k^3 per cell of the body.
+long refined_tet_count(const SimulationBody& body, int k);
+
 // The deformation of a lattice body at given node positions (what Simulation::deformer returns),
 // for callers that place nodes themselves (tests: an affine map, a twist). `node_of_sample` maps
 // each lattice sample (x fastest over cells + 1 samples per axis) to its node, or -1; the samples

@@ -184,6 +184,7 @@ std::string raycast_fragment_source(const BoxTextures& b, const RenderSettings& 
 
 struct Renderer::Impl {
   GLuint raster = 0;
+  bool ray_cast = true;                                  // pass 2 (set_ray_cast)
   std::map<unsigned long, GLuint> raycast;               // by Variant::key
   std::map<unsigned long, std::string> raycast_defines;  // the defines of each, for a reload
   std::shared_ptr<const ShaderFiles> files;              // null: the embedded ones
@@ -443,6 +444,8 @@ void Renderer::set_shader_files(const ShaderFiles& files) {
   impl_->files = std::make_shared<const ShaderFiles>(files);
 }
 
+void Renderer::set_ray_cast(bool on) { impl_->ray_cast = on; }
+
 size_t Renderer::texture_bytes() const {
   size_t n = 0;
   for (const auto& b : impl_->boxes) n += b.bytes;
@@ -454,7 +457,8 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   auto& m = *impl_;
   m.ensure_framebuffer(width, height);
   // Compile the boxes' shader variants first, so that the frame time is the frame's.
-  for (const auto& b : m.boxes) m.raycast_program(raycast_variant(b.data, settings));
+  if (m.ray_cast)
+    for (const auto& b : m.boxes) m.raycast_program(raycast_variant(b.data, settings));
   glFinish();
   auto start = std::chrono::steady_clock::now();
   glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
@@ -501,6 +505,7 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
   glCullFace(GL_FRONT);
   glBindVertexArray(m.cube_vao);
   for (const auto& b : m.boxes) {
+    if (!m.ray_cast) break;
     const Variant variant = raycast_variant(b.data, settings);
     const GLuint program = m.raycast_program(variant);
     Uniforms rc{program};

@@ -60,6 +60,10 @@ class Renderer {
   // uploaded again.
   void set_texture_map(size_t box, const Eigen::Matrix4d& texture_map,
                        const Eigen::AlignedBox3d& region, double lipschitz);
+  // Whether pass 2 ray casts the boxes (default true). false: the frame holds the mesh outside
+  // the boxes only, for a front end that shows the boxes another way (the tetrahedral route) and
+  // composites by depth (composite_nearest).
+  void set_ray_cast(bool on);
   // Renders one frame of width x height and reads it back.
   Image render(const Camera& camera, int width, int height, const RenderSettings& settings,
                FrameStats* stats = nullptr);

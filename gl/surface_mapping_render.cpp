@@ -120,6 +120,7 @@ struct SurfaceMappingRenderer::Impl {
   GLuint draw = 0, readback = 0;  // programs
   GLuint vao = 0, points_vao = 0, vbo = 0, ebo = 0, points_ebo = 0;
   GLuint nodes_tex = 0, triangles_tex = 0;
+  std::size_t binding_bytes = 0, node_bytes = 0;  // gpu_bytes()
   GLsizei indices = 0, vertices = 0;
   bool interpolated = false;
   int node_count = 0;
@@ -280,6 +281,9 @@ void SurfaceMappingRenderer::set_binding(const SurfaceBinding& binding, const Me
     throw Error("OpenGL: cannot upload the surface binding of " + std::to_string(n) + " vertices");
   m.indices = static_cast<GLsizei>(mesh.F.size());
   m.vertices = static_cast<GLsizei>(n);
+  m.binding_bytes = tri.size() * sizeof(GLint) + attributes.size() * sizeof(float) +
+                    static_cast<std::size_t>(mesh.F.size()) * sizeof(int) +
+                    points.size() * sizeof(GLuint);
   m.interpolated = binding.basis == SurfaceBasis::Interpolated;
   m.node_count = binding.node_count;
   m.triangles = binding.triangles;
@@ -309,6 +313,11 @@ void SurfaceMappingRenderer::set_nodes(const std::vector<Eigen::Vector3d>& defor
   if (glGetError() != GL_NO_ERROR)
     throw Error("OpenGL: cannot upload " + std::to_string(m.surface.size()) + " surface nodes");
   m.has_nodes = true;
+  m.node_bytes = texels.size() * sizeof(float);
+}
+
+std::size_t SurfaceMappingRenderer::gpu_bytes() const {
+  return impl_->binding_bytes + impl_->node_bytes;
 }
 
 int SurfaceMappingRenderer::surface_nodes() const {

@@ -16,6 +16,7 @@
 // gl::Context.
 #pragma once
 #include <Eigen/Core>
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +61,9 @@ class SurfaceMappingRenderer {
   };
   Mapped mapped_vertices();
   int surface_nodes() const;  // nodes uploaded per frame
+  // Bytes of GPU memory the binding (vertex attributes, indices, the coarse triangles) and the
+  // nodes hold, as allocated.
+  std::size_t gpu_bytes() const;
 
  private:
   struct Impl;

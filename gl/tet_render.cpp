@@ -825,6 +825,15 @@ void TetRenderer::set_pass_cap(int passes) {
 }
 int TetRenderer::pass_cap() const { return impl_->pass_cap; }
 int TetRenderer::tet_count() const { return static_cast<int>(impl_->tets.size()); }
+
+std::size_t TetRenderer::mesh_bytes() const {
+  const Impl& m = *impl_;
+  const std::size_t row = kTextureWidth;
+  const std::size_t faces = m.topology.boundary.size();
+  const std::size_t face_rows = (faces + row - 1) / row;
+  return static_cast<std::size_t>(m.tet_rows) * row * (16 + 16 + 4 * 16 + 16) +
+         static_cast<std::size_t>(m.node_rows) * row * 16 + face_rows * row * 8 + faces * 12;
+}
 double TetRenderer::update_milliseconds() const { return impl_->update_ms; }
 
 TetGpuGeometry TetRenderer::geometry() {

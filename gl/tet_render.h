@@ -21,6 +21,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <vector>
 
@@ -90,6 +91,10 @@ class TetRenderer {
   // The planes and gradients of the current state as computed by the GPU.
   TetGpuGeometry geometry();
   int tet_count() const;
+  // Bytes of GPU memory the mesh and its state hold (the textures as allocated, rows of
+  // kTextureWidth, and the element buffer); the pre-integration table and the per-image targets
+  // are apart.
+  std::size_t mesh_bytes() const;
   long step_cap() const { return 4L * tet_count() + 1000; }
   // Milliseconds of set_state's GPU update pass (draw to glFinish), the last time.
   double update_milliseconds() const;

@@ -123,4 +123,17 @@ Image read_png(const std::string& path) {
   return image;
 }
 
+Image composite_nearest(const Image& a, const Image& b) {
+  if (a.width != b.width || a.height != b.height)
+    throw Error("composite: images of " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                " and " + std::to_string(b.width) + "x" + std::to_string(b.height) + " pixels");
+  Image out = a;
+  for (size_t i = 0; i < out.depth.size(); ++i)
+    if (b.depth[i] < out.depth[i]) {
+      out.depth[i] = b.depth[i];
+      for (int c = 0; c < 4; ++c) out.rgba[4 * i + c] = b.rgba[4 * i + c];
+    }
+  return out;
+}
+
 }  // namespace raywarp

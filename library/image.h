@@ -34,6 +34,10 @@ double srgb_encode(double linear);
 uint8_t srgb_byte(double linear);
 
 // Silhouette and depth agreement of two renders of the same camera.
+// Per pixel, the nearer of a and b by depth (a where neither is covered or they tie): two frames
+// of one camera composited. Throws Error when their sizes differ.
+Image composite_nearest(const Image& a, const Image& b);
+
 struct ImageComparison {
   double iou = 0.0;               // |A and B| / |A or B| of the covered pixels
   long common = 0;                // pixels covered in both

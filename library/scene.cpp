@@ -397,12 +397,67 @@ Camera read_camera(const JsonReader& r, const json& j, const std::filesystem::pa
   }
 }
 
+TransferFunction read_transfer_function(const JsonReader& r, const json& j,
+                                        const std::string& field) {
+  if (!j.is_array() || j.empty() || j.size() > static_cast<size_t>(kMaxTransferPoints))
+    r.fail(field, j,
+           "must be a list of 1 to " + std::to_string(kMaxTransferPoints) +
+               " control points {\"s\": scalar, \"colour\": [r, g, b], \"tau\": extinction} "
+               "in increasing s");
+  TransferFunction tf;
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string at = element(field, i);
+    const json& p = j[i];
+    r.require_object(p, at, "{\"s\": 0, \"colour\": [1, 1, 1], \"tau\": 1}");
+    r.check_keys(p, at, {"s", "colour", "tau"});
+    TransferPoint point;
+    point.s = r.number(r.required(p, at, "s", "give the scalar of the control point"),
+                       child(at, "s"), {-1e9, 1e9, false, false});
+    if (i > 0 && !(point.s > tf.points.back().s))
+      r.fail(child(at, "s"), p["s"],
+             "must be greater than the previous point's s (" + shortest_text(tf.points.back().s) +
+                 ")");
+    point.colour = r.vec3(r.required(p, at, "colour", "give [r, g, b], linear, in [0, 1]"),
+                          child(at, "colour"), closed(0, 1));
+    point.tau = r.number(r.required(p, at, "tau", "give the extinction per object unit, >= 0"),
+                         child(at, "tau"), closed(0, 1e6));
+    tf.points.push_back(point);
+  }
+  tf.validate();
+  return tf;
+}
+
+TetDisplaySpec read_tets(const JsonReader& r, const json& j) {
+  const std::string field = "render.tets";
+  r.require_object(j, field, "{\"mode\": \"surface\"}");
+  r.check_keys(
+      j, field,
+      {"mode", "refine", "scalar", "transfer_function", "scalar_samples", "length_samples"});
+  TetDisplaySpec t;
+  if (j.contains("mode")) t.mode = r.one_of(j["mode"], child(field, "mode"), {"surface", "volume"});
+  if (j.contains("refine"))
+    t.refine = read_resolution(r, j["refine"], child(field, "refine"), 1, 8);
+  if (j.contains("scalar"))
+    t.scalar = r.one_of(j["scalar"], child(field, "scalar"), {"f", "strain"});
+  if (j.contains("transfer_function"))
+    t.transfer =
+        read_transfer_function(r, j["transfer_function"], child(field, "transfer_function"));
+  if (j.contains("scalar_samples"))
+    t.scalar_samples = r.integer(j["scalar_samples"], child(field, "scalar_samples"), 2, 512);
+  if (j.contains("length_samples"))
+    t.length_samples = r.integer(j["length_samples"], child(field, "length_samples"), 2, 512);
+  if (t.mode == "surface")
+    for (const char* k : {"scalar", "transfer_function", "scalar_samples", "length_samples"})
+      if (j.contains(k)) r.fail(child(field, k), j[k], "applies to \"mode\": \"volume\" only");
+  return t;
+}
+
 RenderSettings read_render(const JsonReader& r, const json& j) {
   r.require_object(j, "render", "{\"width\": ..., \"height\": ...}");
   r.check_keys(j, "render",
                {"width", "height", "step_voxels", "max_steps", "refine_steps", "background",
                 "colour", "cut_colour", "inside_colour", "skipping", "sampling", "threshold_voxels",
-                "fine_factor", "hit_epsilon_voxels", "texture_bits"});
+                "fine_factor", "hit_epsilon_voxels", "texture_bits", "route", "tets"});
   RenderSettings s;
   if (j.contains("width")) s.width = r.integer(j["width"], "render.width", 1, kMaxImageSide);
   if (j.contains("height")) s.height = r.integer(j["height"], "render.height", 1, kMaxImageSide);
@@ -442,6 +497,8 @@ RenderSettings read_render(const JsonReader& r, const json& j) {
       r.fail("render.texture_bits", v, "must be 16 or 32");
     s.texture_bits = v.get<int>();
   }
+  if (j.contains("route")) s.route = r.one_of(j["route"], "render.route", {"texture", "tets"});
+  if (j.contains("tets")) s.tets = read_tets(r, j["tets"]);
   return s;
 }
 
@@ -486,6 +543,13 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
                     "tracing needs a distance grid (implicit.type \"sdf\"): use linear, threshold "
                     "or jacobian");
     }
+  if (scene.render.route == "tets")
+    for (size_t i = 0; i < scene.boxes.size(); ++i)
+      if (scene.boxes[i].deformer.type != "simulation")
+        throw Error(path.string() + ": render.route = \"tets\": boxes[" + std::to_string(i) +
+                    "].deformer.type is \"" + scene.boxes[i].deformer.type +
+                    "\"; the tetrahedral route shows simulation boxes only: use route "
+                    "\"texture\"");
   return scene;
 }
 

@@ -13,6 +13,7 @@
 #include "base/box.h"
 #include "deformers/registry.h"
 #include "library/camera.h"
+#include "library/preintegration.h"
 #include "library/textures.h"
 
 namespace raywarp {
@@ -75,6 +76,27 @@ struct BoxSpec {
   double alpha_max_mib = 16;  // [1, 1024]
 };
 
+// How the second image-space route shows a simulation box (render.route "tets"): the body's
+// tetrahedra in the simulated state, walked by the tetrahedral ray caster (library/tet_body.h,
+// docs/tet_render.md).
+struct TetDisplaySpec {
+  // "surface": the first crossing of f (the mesh part's signed distance, > 0 inside, carried on
+  // the nodes); "volume": the scalar through the pre-integrated transfer function.
+  std::string mode = "surface";
+  // Each lattice cell split into refine^3 cells before the Kuhn split, [1, 8], or
+  // kAutoResolution ("auto", the default): the smallest split whose cells are at most
+  // kTetAutoCellVoxels voxels of the implicit on their longest side, within kMaxRenderTets.
+  int refine = kAutoResolution;
+  std::string scalar = "f";  // volume: "f" (object units) or "strain" (largest |stretch - 1|)
+  // volume: the transfer function over the scalar; none: default_transfer_function over the
+  // state's range of the scalar.
+  std::optional<TransferFunction> transfer;
+  int scalar_samples = 128;  // the pre-integration table: N along s_front and s_back, [2, 512]
+  int length_samples = 64;   // M along the length, [2, 512]
+};
+constexpr double kTetAutoCellVoxels = 2.0;
+constexpr long kMaxRenderTets = 4000000;
+
 // The step of linear and jacobian sampling when the scene gives none, voxels.
 constexpr double kFineStepVoxels = 0.5;
 
@@ -105,6 +127,11 @@ struct RenderSettings {
   // g > -hit_epsilon_voxels voxels counts as the hit. Continuous deformations only.
   double hit_epsilon_voxels = 0.02;  // (0, 1]
   int texture_bits = 32;             // 32 or 16: float precision of the textures on the GPU
+  // How simulation boxes are shown: "texture" (the deformation texture, ray cast; every
+  // deformer) or "tets" (the body's tetrahedra walked by the tetrahedral ray caster; scenes
+  // whose boxes are all simulations).
+  std::string route = "texture";
+  TetDisplaySpec tets;
 };
 
 // The textures of all boxes of a scene together must fit in this many bytes; load_scene checks

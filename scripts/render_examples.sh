@@ -9,6 +9,9 @@ for scene in examples/*.json; do
   echo "== $name"
   build/raywarp render "$scene" -o "out/$name.png" --depth "out/$name.f32" --mask "out/${name}_mask.png"
 done
+echo "== bunny_simulation by the tetrahedral route: the body's tetrahedra walked in a fragment shader"
+build/raywarp render examples/bunny_simulation.json --route tets -o out/bunny_simulation_tets.png \
+  --depth out/bunny_simulation_tets.f32
 echo "== animation: the head's twist from 0 to 360 degrees, one bake for 60 frames"
 build/raywarp render examples/bunny_head_twist.json -o out/anim/bunny_head_twist.png --frames 60 \
   --param 'boxes[0].deformer.angle_deg=0:360' --width 256 --height 256

@@ -1217,6 +1217,79 @@ std::vector<BadCase> bad_cases() {
               j["render"] = {{"texture_bits", 8}};
             }); },
        {": render.texture_bits = 8: must be 16 or 32"}},
+      {"RenderRouteUnknown",
+       [] { return edit([](json& j) {
+              j["render"] = {{"route", "mesh"}};
+            }); },
+       {": render.route = \"mesh\": must be one of texture, tets"}},
+      {"RenderRouteTetsNeedsSimulation",
+       [] { return edit([](json& j) {
+              j["render"] = {{"route", "tets"}};
+            }); },
+       {": render.route = \"tets\": boxes[0].deformer.type is \"twist\"", "simulation boxes only"}},
+      {"TetsModeUnknown",
+       [] { return edit([](json& j) {
+              j["render"] = {{"tets", {{"mode", "points"}}}};
+            }); },
+       {": render.tets.mode = \"points\": must be one of surface, volume"}},
+      {"TetsRefineOutOfRange",
+       [] { return edit([](json& j) {
+              j["render"] = {{"tets", {{"refine", 9}}}};
+            }); },
+       {": render.tets.refine = 9: must be an integer in [1, 8]"}},
+      {"TetsUnknownField",
+       [] { return edit([](json& j) {
+              j["render"] = {{"tets", {{"modes", "volume"}}}};
+            }); },
+       {": render.tets.modes = \"volume\": unknown field; allowed: mode, refine"}},
+      {"TetsTransferOnSurfaceMode",
+       [] {
+         return edit([](json& j) {
+           j["render"] = {{"tets",
+                           {{"transfer_function",
+                             json::array({{{"s", 0}, {"colour", {1, 1, 1}}, {"tau", 1}}})}}}};
+         });
+       },
+       {": render.tets.transfer_function = ", "applies to \"mode\": \"volume\" only"}},
+      {"TetsTransferNotIncreasing",
+       [] {
+         return edit([](json& j) {
+           j["render"] = {{"tets",
+                           {{"mode", "volume"},
+                            {"transfer_function",
+                             json::array({{{"s", 1}, {"colour", {1, 1, 1}}, {"tau", 1}},
+                                          {{"s", 0}, {"colour", {1, 1, 1}}, {"tau", 1}}})}}}};
+         });
+       },
+       {": render.tets.transfer_function[1].s = 0: must be greater than the previous point's s "
+        "(1)"}},
+      {"TetsTransferColourOutOfRange",
+       [] {
+         return edit([](json& j) {
+           j["render"] = {{"tets",
+                           {{"mode", "volume"},
+                            {"transfer_function",
+                             json::array({{{"s", 0}, {"colour", {1, 2, 1}}, {"tau", 1}}})}}}};
+         });
+       },
+       {": render.tets.transfer_function[0].colour[1] = 2: must be a number in [0, 1]"}},
+      {"TetsTransferNegativeTau",
+       [] {
+         return edit([](json& j) {
+           j["render"] = {{"tets",
+                           {{"mode", "volume"},
+                            {"transfer_function",
+                             json::array({{{"s", 0}, {"colour", {1, 1, 1}}, {"tau", -1}}})}}}};
+         });
+       },
+       {": render.tets.transfer_function[0].tau = -1: must be a number in [0, 1000000]"}},
+      {"TetsTransferEmpty",
+       [] {
+         return edit([](json& j) {
+           j["render"] = {{"tets", {{"mode", "volume"}, {"transfer_function", json::array()}}}};
+         });
+       },
+       {": render.tets.transfer_function = []: must be a list of 1 to 4096 control points"}},
       {"RenderFineFactorAboveOne",
        [] { return edit([](json& j) {
               j["render"] = {{"fine_factor", 1.5}};

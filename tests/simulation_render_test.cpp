@@ -12,13 +12,18 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "deformers/registry.h"
 #include "deformers/simulation.h"
 #include "deformers/twist.h"
+#include "gl/tet_scene.h"
 #include "library/deformation_bake.h"
+#include "library/tet_body.h"
 #include "tests/ground_truth_render.h"
+#include "verify/ground_truth.h"
 
 using namespace raywarp;
 
@@ -101,6 +106,91 @@ TEST(SimulationRender, TwistedNodesMatchGroundTruth) {
     expect_thresholds(std::string("twisted_nodes_") + sim_model_names()[static_cast<int>(model)],
                       compare_images(image, truth, 0.01 * diagonal), image, truth);
   }
+}
+
+// The tetrahedral route (render.route "tets") on the simulated state: the body's tetrahedra
+// mapped by the same F, f's zero set walked in surface mode and composited with the rasterised
+// mesh outside the box, within the thresholds against the exact ground truth and against the
+// deformation-texture route; for the grid model (the example) and the tets model.
+TEST(SimulationRender, TetRouteMatchesTruthAndTextureRoute) {
+  const std::string root = RAYWARP_SOURCE_DIR;
+  for (const char* model : {"grid", "tets"}) {
+    nlohmann::json doc = read_scene_document(root + "/examples/bunny_simulation.json");
+    doc["boxes"][0]["deformer"]["model"] = model;
+    const Scene scene = load_scene_json(doc, root + "/examples/bunny_simulation.json");
+    const Camera camera = load_camera(root + "/examples/cameras/front.json");
+    std::ostringstream log;
+    const PreparedScene prepared = prepare_scene(scene, log);
+    ASSERT_EQ(prepared.boxes.size(), 1u);
+    const BakedBox& box = prepared.boxes[0];
+    raywarp::testing::osmesa_context();
+    gl::Renderer texture_route;
+    texture_route.set_mesh(prepared.mesh());
+    texture_route.set_boxes(prepared.textures());
+    const Image texture_image = texture_route.render(camera, kSize, kSize, scene.render);
+
+    const TetBody body = build_tet_body(box, prepared.mesh(), scene.render.tets);
+    gl::TetSceneRenderer tets(prepared.mesh(), {&box.textures}, {&body}, scene.render.tets);
+    gl::TetSceneStats stats;
+    const Image image = tets.render(camera, kSize, kSize, scene.render, &stats);
+    EXPECT_EQ(stats.walk.capped, 0);
+    EXPECT_FALSE(stats.walk.pass_cap_reached);
+
+    const Truth truth = ground_truth(scene, prepared, camera, kSize, kSize);
+    const double threshold = 0.01 * truth.diagonal;
+    const ImageComparison vs_truth = compare_images(image, truth.image, threshold);
+    const ImageComparison vs_texture = compare_images(image, texture_image, threshold);
+    std::printf(
+        "[figures] tet route %s: %zu tets (cells split %d^3), %d passes; vs truth IoU "
+        "%.4f, %.2f%% over; vs texture route IoU %.4f, %.2f%% over\n",
+        model, body.tets.size(), body.refine, stats.walk.passes, vs_truth.iou,
+        100 * vs_truth.fraction_over, vs_texture.iou, 100 * vs_texture.fraction_over);
+    expect_thresholds(std::string("tet_route_") + model, vs_truth, image, truth.image);
+    EXPECT_GE(vs_texture.iou, 0.98) << model;
+    EXPECT_LE(vs_texture.fraction_over, 0.02) << model;
+  }
+}
+
+// The volume mode of the route reads the scene's transfer function: with no extinction the body
+// adds nothing (its pixels show the background), with an opaque red one every pixel it covers is
+// red (up to the background the early termination at an opacity of 0.99 leaves: green and blue
+// below 64 of 255 on white); the default function over f puts colour inside the part only.
+TEST(SimulationRender, TetRouteVolumeReadsTheTransferFunction) {
+  const std::string root = RAYWARP_SOURCE_DIR;
+  const Scene base = load_scene(root + "/examples/bunny_simulation.json");
+  const Camera camera = load_camera(root + "/examples/cameras/front.json");
+  std::ostringstream log;
+  const PreparedScene prepared = prepare_scene(base, log);
+  const BakedBox& box = prepared.boxes[0];
+  raywarp::testing::osmesa_context();
+  TetDisplaySpec spec;
+  spec.mode = "volume";
+  spec.refine = 2;
+  spec.scalar_samples = 32;
+  spec.length_samples = 16;
+  const TetBody body = build_tet_body(box, prepared.mesh(), spec);
+  auto red_pixels = [&](const TransferFunction& tf) {
+    TetDisplaySpec s = spec;
+    s.transfer = tf;
+    gl::TetSceneRenderer r(prepared.mesh(), {&box.textures}, {&body}, s);
+    const Image image = r.render(camera, 128, 128, base.render);
+    long red = 0;
+    for (size_t i = 0; i < image.depth.size(); ++i)
+      red += image.rgba[4 * i] == 255 && image.rgba[4 * i + 1] < 64 && image.rgba[4 * i + 2] < 64;
+    return red;
+  };
+  TransferFunction clear;
+  clear.points.push_back({0.0, Eigen::Vector3d(1, 0, 0), 0.0});
+  TransferFunction opaque;
+  opaque.points.push_back({0.0, Eigen::Vector3d(1, 0, 0), 100.0});
+  EXPECT_EQ(red_pixels(clear), 0);
+  const long covered = red_pixels(opaque);
+  EXPECT_GT(covered, 500);
+  std::printf("[figures] tet route volume: %zu tets, opaque red body covers %ld of 128^2 pixels\n",
+              body.tets.size(), covered);
+  const TransferFunction def = default_transfer_function(body.f, "f", 10.0);
+  EXPECT_EQ(def.points.front().tau, 0.0);
+  EXPECT_GT(def.points.back().s, 0.0);
 }
 
 }  // namespace

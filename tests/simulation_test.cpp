@@ -6,9 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -200,6 +202,61 @@ TEST(Simulation, RunsFromRestRepeatably) {
 }
 
 // A drag moves its nodes along its path: at the end they sit at rest + the last offset.
+// refine_body splits the body's cells as its own Kuhn split does: at k = 1 it gives the body's
+// tetrahedra; at every k the counts are 6 k^3 per cell, every tetrahedron is positive at rest, and
+// F of the tets model (linear per body tetrahedron) is linear on each refined one: F at its
+// centroid is the mean of F at its corners.
+TEST(Simulation, RefinedBodyNestsInTheBody) {
+  SimulationParams p = sway_params();
+  p.model = SimModel::tets;
+  p.steps = 10;
+  Simulation sim(p, kHalf, cylinder(0.6));
+  sim.run(0, nullptr);
+  const SimulationBody& body = sim.body();
+  const auto F = sim.deformer(sim.positions());
+  ASSERT_FALSE(body.tets.empty());
+  const long cells = static_cast<long>(body.tets.size()) / 6;
+  auto key = [](const std::vector<Eigen::Vector3d>& rest, const std::array<int, 4>& t) {
+    std::vector<std::array<double, 3>> corners;
+    for (int c : t) corners.push_back({rest[c].x(), rest[c].y(), rest[c].z()});
+    std::sort(corners.begin(), corners.end());
+    return corners;
+  };
+  for (int k : {1, 2, 3}) {
+    const SimulationBody fine = refine_body(body, k, 1000000);
+    ASSERT_EQ(static_cast<long>(fine.tets.size()), 6L * k * k * k * cells) << k;
+    EXPECT_EQ(refined_tet_count(body, k), static_cast<long>(fine.tets.size()));
+    EXPECT_EQ(fine.rest.size(), fine.sample.size());
+    double worst = 0, smallest = 1e300;
+    for (const auto& t : fine.tets) {
+      const Eigen::Vector3d &a = fine.rest[t[0]], &b = fine.rest[t[1]], &c = fine.rest[t[2]],
+                            &d = fine.rest[t[3]];
+      smallest = std::min(smallest, (b - a).dot((c - a).cross(d - a)));
+      const Eigen::Vector3d mean =
+          (F->forward(a) + F->forward(b) + F->forward(c) + F->forward(d)) / 4.0;
+      worst = std::max(worst, (F->forward((a + b + c + d) / 4.0) - mean).norm());
+    }
+    EXPECT_GT(smallest, 0) << k;
+    EXPECT_LT(worst, 1e-12) << k;
+    if (k == 1) {
+      std::set<std::vector<std::array<double, 3>>> a, b;
+      for (const auto& t : body.tets) a.insert(key(body.rest, t));
+      for (const auto& t : fine.tets) b.insert(key(fine.rest, t));
+      EXPECT_EQ(a, b);
+    }
+    std::printf("[figures] refined body k=%d: %zu tets, %zu nodes, F linear per tet to %.2g\n", k,
+                fine.tets.size(), fine.rest.size(), worst);
+  }
+  EXPECT_THROW(refine_body(body, 9, 1000000), Error);
+  try {
+    refine_body(body, 3, 100);
+    ADD_FAILURE() << "no error past max_tets";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(std::to_string(27 * 6 * cells)), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Simulation, DragsFollowTheirPath) {
   SimulationParams p = sway_params();
   p.gravity.setZero();

@@ -111,12 +111,12 @@ TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
     EXPECT_NE(read(dir / svg).find("<svg"), std::string::npos) << svg;
   }
 
-  // The image part: one stiffness, three routes against the exact ground truth of its state.
+  // The image part: one stiffness, four routes against the exact ground truth of its state.
   std::ifstream images(dir / "images.csv");
   std::getline(images, header);
   EXPECT_EQ(header, raywarp::kStiffnessImagesCsvHeader);
   const std::vector<std::string> image_columns = split(header);
-  ASSERT_EQ(image_columns.size(), 17u);
+  ASSERT_EQ(image_columns.size(), 20u);
   EXPECT_EQ(image_columns[7], "iou");
   EXPECT_EQ(image_columns[8], "over_1pct_percent");
   std::set<std::string> routes;
@@ -128,10 +128,14 @@ TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
     EXPECT_GT(std::stod(f[5]), 0.5) << line;  // the drag moved the body
     // Image space within the foundation's thresholds; object space measured against the same
     // truth (its error is the mapping's own, recorded, with a loose bound).
-    if (f[1] == "image space") {
+    EXPECT_GT(std::stod(f[17]), 0) << line;  // GPU memory
+    if (f[1] == "image space" || f[1] == "tet walk (surface)") {
       EXPECT_GE(std::stod(f[7]), 0.98) << line;
       EXPECT_LE(std::stod(f[8]), 2.0) << line;
-      EXPECT_GT(std::stod(f[13]), 0) << line;  // D texels
+      if (f[1] == "image space")
+        EXPECT_GT(std::stod(f[13]), 0) << line;  // D texels
+      else
+        EXPECT_GT(std::stod(f[18]), 0) << line;  // tetrahedra
     } else {
       EXPECT_GE(std::stod(f[7]), 0.9) << line;
       EXPECT_GE(std::stod(f[11]), 0) << line;  // vertex error
@@ -139,8 +143,9 @@ TEST(StiffnessStudy, QuickRunWritesCsvChartsAndReport) {
     EXPECT_GT(std::stod(f[10]), 0) << line;  // frame ms
   }
   EXPECT_EQ(routes, (std::set<std::string>{"image space", "object space (triangle)",
-                                           "object space (interpolated)"}));
-  for (const char* png : {"ks_30000_image.png", "ks_30000_object.png", "ks_30000_truth.png"})
+                                           "object space (interpolated)", "tet walk (surface)"}));
+  for (const char* png :
+       {"ks_30000_image.png", "ks_30000_object.png", "ks_30000_tets.png", "ks_30000_truth.png"})
     EXPECT_TRUE(fs::exists(dir / "images" / png)) << png;
   EXPECT_NE(report.find("Images against ks"), std::string::npos);
   fs::remove_all(dir);
