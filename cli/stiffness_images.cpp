@@ -257,7 +257,7 @@ std::string run_stiffness_images(const StiffnessImageOptions& options, std::ostr
 
   // The report's section.
   std::ostringstream md;
-  md << "## Images against ks: image space against object space\n\n"
+  md << "## Images against ks: image space, the tet walk and object space\n\n"
      << "`" << options.scene.generic_string()
      << "` with its `ks` replaced, final state; each route against the exact ground truth of "
         "the same state (the mesh split at the box faces, subdivided to a quarter voxel, mapped "

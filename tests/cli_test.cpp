@@ -10,6 +10,8 @@
 #include <random>
 #include <string>
 
+#include "library/image.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -117,6 +119,40 @@ TEST_F(CliTest, ValidSceneRendersAllOutputs) {
   EXPECT_EQ(fs::file_size(dir / "d.f32"), 32u * 32u * 4u);
   EXPECT_TRUE(fs::exists(dir / "d.f32.json"));
   EXPECT_TRUE(fs::exists(dir / "m.png"));
+}
+
+TEST_F(CliTest, TetRouteNeedsSimulationBoxes) {
+  expect_failure(scene(), "--route tets",
+                 {"--route tets", "boxes[0].deformer.type is \"twist\"", "simulation boxes only"});
+  expect_failure(scene(R"("min": [-0.5, -0.5, -0.5], "max": [0.5, 0.5, 0.5])",
+                       R"({"type": "twist", "axis": "y", "angle_deg": 90})",
+                       R"("camera": "cam.json", "render": {"route": "tets"})"),
+                 "", {"s.json", "render.route = \"tets\"", "simulation boxes only"});
+  expect_failure(scene(), "--route mesh", {"--route", "mesh"});
+}
+
+// The octahedron's middle as a simulation box (tets model, 4 cells), shown by the tetrahedral
+// route in both modes.
+TEST_F(CliTest, TetRouteRendersASimulationBox) {
+  for (const char* tets : {R"({"mode": "surface", "refine": 2})",
+                           R"({"mode": "volume", "scalar": "strain", "scalar_samples": 16,
+                               "length_samples": 8})"}) {
+    std::ofstream(dir / "s.json") << scene(
+        R"("min": [-0.6, -0.3, -0.6], "max": [0.6, 0.6, 0.6])",
+        R"({"type": "simulation", "model": "tets", "resolution": 4, "ks": 1000, "density": 10,
+            "steps": 5})",
+        std::string(R"("camera": "cam.json", "render": {"route": "tets", "tets": )") + tets + "}");
+    Result r = run((dir / "s.json").string() + " -o " + (dir / "t.png").string() + " --depth " +
+                   (dir / "t.f32").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("tetrahedral route"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("peeling passes"), std::string::npos) << r.output;
+    const raywarp::Image image = raywarp::read_png((dir / "t.png").string());
+    long differs = 0;
+    for (size_t i = 0; i < image.rgba.size(); i += 4) differs += image.rgba[i + 1] != 255;
+    EXPECT_GT(differs, 10) << tets;  // something shows besides the white background
+    EXPECT_EQ(fs::file_size(dir / "t.f32"), 32u * 32u * 4u);
+  }
 }
 
 TEST_F(CliTest, MissingSceneFile) {

@@ -151,6 +151,31 @@ TEST(SimulationRender, TetRouteMatchesTruthAndTextureRoute) {
   }
 }
 
+// At rest (every refined node at its rest position), the route's surface against the mesh
+// itself, rasterised with no box: f's zero set, linear per tetrahedron, within the thresholds.
+TEST(SimulationRender, TetRouteAtRestMatchesTheMesh) {
+  const std::string root = RAYWARP_SOURCE_DIR;
+  const Scene scene = load_scene(root + "/examples/bunny_simulation.json");
+  const Camera camera = load_camera(root + "/examples/cameras/front.json");
+  std::ostringstream log;
+  const PreparedScene prepared = prepare_scene(scene, log);
+  const BakedBox& box = prepared.boxes[0];
+  raywarp::testing::osmesa_context();
+  TetBody body = build_tet_body(box, prepared.mesh(), scene.render.tets);
+  for (size_t i = 0; i < body.rest.size(); ++i)
+    body.positions[i] = box.textures.box.to_object(body.rest[i]);
+  gl::TetSceneRenderer tets(prepared.mesh(), {&box.textures}, {&body}, scene.render.tets);
+  const Image image = tets.render(camera, kSize, kSize, scene.render);
+  gl::Renderer plain;
+  plain.set_mesh(prepared.mesh());
+  const Image mesh = plain.render(camera, kSize, kSize, scene.render);
+  const double diagonal = mesh_bounds(prepared.mesh()).diagonal().norm();
+  const ImageComparison c = compare_images(image, mesh, 0.01 * diagonal);
+  std::printf("[figures] tet route at rest: %zu tets, IoU %.4f, %.2f%% over 1%% of the diagonal\n",
+              body.tets.size(), c.iou, 100 * c.fraction_over);
+  expect_thresholds("tet_route_rest", c, image, mesh);
+}
+
 // The volume mode of the route reads the scene's transfer function: with no extinction the body
 // adds nothing (its pixels show the background), with an opaque red one every pixel it covers is
 // red (up to the background the early termination at an opacity of 0.99 leaves: green and blue
