@@ -28,6 +28,9 @@ constexpr double kGaussX[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.
 constexpr double kGaussW[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
                                0.4786286704993665, 0.2369268850561891};
 
+// Optical depth beyond which a segment's colour is not integrated further (exp(-50) ≈ 2e-22).
+constexpr double kDepthCutoff = 50.0;
+
 // 1 - exp(-x) without cancellation for small x.
 double opacity_of(double optical_depth) { return -std::expm1(-optical_depth); }
 
@@ -39,7 +42,8 @@ void check_length(const char* who, double length) {
 // The segment's integral: split at the control points the scalar crosses (found by binary
 // search), so that colour and τ are linear in t on each piece and the optical depth is exact
 // (a quadratic); C by 5-point Gauss-Legendre on max(1, round(panels · piece / length)) panels a
-// piece. No checks.
+// piece, and at least one panel per unit of the piece's optical depth up to kDepthCutoff (where
+// the integration stops). No checks.
 SegmentColour integrate_segment(const TransferFunction& tf, double s_front, double s_back,
                                 double length, int panels) {
   SegmentColour out;
@@ -69,10 +73,24 @@ SegmentColour integrate_segment(const TransferFunction& tf, double s_front, doub
       vb = tf.at(s_back);
     }
     const double w = b - a;
+    if (depth > kDepthCutoff) break;  // what lies behind adds less than exp(-kDepthCutoff)
     if (w > 0.0) {
       const double tau_a = va[3], tau_b = vb[3];
-      const int n = std::max(1, static_cast<int>(std::lround(panels * (w / length))));
-      const double h = w / n;
+      // An optically thick piece: integrate only to where the depth reaches the cut-off, on at
+      // least one panel per unit of optical depth, so that 5-point Gauss-Legendre resolves
+      // exp(-∫τ) however large τ is.
+      const double piece_depth = 0.5 * w * (tau_a + tau_b);
+      const double to_cover = std::min(piece_depth, kDepthCutoff);
+      double span = w;
+      if (to_cover < piece_depth) {
+        // ∫_a^{a+x} τ = tau_a x + (tau_b - tau_a) x² / (2 w) = to_cover, solved stably.
+        const double root =
+            std::sqrt(std::max(0.0, tau_a * tau_a + 2.0 * (tau_b - tau_a) * to_cover / w));
+        span = tau_a + root > 0.0 ? std::min(w, 2.0 * to_cover / (tau_a + root)) : w;
+      }
+      const int n = std::max({1, static_cast<int>(std::lround(panels * (w / length))),
+                              static_cast<int>(std::ceil(to_cover))});
+      const double h = span / n;
       for (int q = 0; q < n; ++q) {
         const double p0 = a + q * h;
         for (int g = 0; g < 5; ++g) {

@@ -64,6 +64,45 @@ TEST(Preintegration, ConstantScalarHasTheClosedForm) {
   EXPECT_LT(worst, 1e-13);
 }
 
+// Optically thick segments (τ l up to 3e4, τ up to the allowed 1e6 per unit): the colour of an
+// opaque segment is the colour where it starts, for the quadrature, for one panel (as a table's
+// slab is integrated) and for the table itself; with τ rising linearly from 0, the closed form
+// C = c (1 - exp(-τ_b l / 2)) of a constant colour.
+TEST(Preintegration, OpticallyThickSegmentsKeepTheirColour) {
+  TransferFunction opaque;
+  opaque.points.push_back({0.0, Vec3(1.0, 0.2, 0.0), 1e6});
+  double worst = 0.0;
+  for (double l : {1e-5, 3e-3, 0.03})
+    for (int panels : {1, 256}) {
+      SegmentColour closed;
+      closed.alpha = 1.0 - std::exp(-1e6 * l);
+      closed.colour = Vec3(1.0, 0.2, 0.0) * closed.alpha;
+      worst = std::max(worst, difference(preintegrate_exact(opaque, 0.0, 0.0, l, panels), closed));
+    }
+  TransferFunction rising;
+  rising.points.push_back({0.0, Vec3(0.3, 0.6, 0.9), 0.0});
+  rising.points.push_back({1.0, Vec3(0.3, 0.6, 0.9), 2e4});
+  for (double l : {1e-3, 0.1, 3.0}) {
+    SegmentColour closed;
+    closed.alpha = 1.0 - std::exp(-2e4 * l / 2.0);
+    closed.colour = Vec3(0.3, 0.6, 0.9) * closed.alpha;
+    for (int panels : {1, 256})
+      worst = std::max(worst, difference(preintegrate_exact(rising, 0.0, 1.0, l, panels), closed));
+  }
+  std::printf("[figures] optically thick segments against closed forms: %.2e\n", worst);
+  EXPECT_LT(worst, 1e-9);
+  PreintegrationSizes sizes;
+  sizes.scalar_samples = 8;
+  sizes.length_samples = 16;
+  sizes.s_max = 1.0;
+  sizes.max_length = 0.2;
+  const PreintegrationTable table(opaque, sizes);
+  const SegmentColour c = table.lookup(0.3, 0.6, 0.1);
+  EXPECT_NEAR(c.alpha, 1.0, 1e-6);
+  EXPECT_NEAR(c.colour.x(), 1.0, 1e-6);
+  EXPECT_NEAR(c.colour.y(), 0.2, 1e-6);
+}
+
 TEST(Preintegration, QuadratureMatchesClosedFormsOfVaryingScalars) {
   // A constant colour with any τ: C = c α exactly (∫ τ exp(-∫τ) = 1 - exp(-∫τ)).
   TransferFunction grey = ramp();

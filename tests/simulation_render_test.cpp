@@ -207,7 +207,7 @@ TEST(SimulationRender, TetRouteVolumeReadsTheTransferFunction) {
   TransferFunction clear;
   clear.points.push_back({0.0, Eigen::Vector3d(1, 0, 0), 0.0});
   TransferFunction opaque;
-  opaque.points.push_back({0.0, Eigen::Vector3d(1, 0, 0), 100.0});
+  opaque.points.push_back({0.0, Eigen::Vector3d(1, 0, 0), 1e6});
   EXPECT_EQ(red_pixels(clear), 0);
   const long covered = red_pixels(opaque);
   EXPECT_GT(covered, 500);
