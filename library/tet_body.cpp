@@ -83,9 +83,17 @@ const std::vector<double>& shown_scalar(const TetBody& body, const TetDisplaySpe
 
 TransferFunction default_transfer_function(const std::vector<double>& values,
                                            const std::string& scalar, double diagonal) {
-  double hi = 0.0;
+  // hi: the 95th percentile of the finite values, so that a few extreme nodes (a dragged
+  // corner's strain) do not wash the ramp out over the rest of the body.
+  std::vector<double> finite;
   for (double v : values)
-    if (std::isfinite(v)) hi = std::max(hi, v);
+    if (std::isfinite(v)) finite.push_back(v);
+  double hi = 0.0;
+  if (!finite.empty()) {
+    const size_t at = std::min(finite.size() - 1, static_cast<size_t>(0.95 * finite.size()));
+    std::nth_element(finite.begin(), finite.begin() + static_cast<long>(at), finite.end());
+    hi = finite[at];
+  }
   if (!(hi > 1e-9)) hi = 1e-9;
   const double d = diagonal > 0.0 && std::isfinite(diagonal) ? diagonal : 1.0;
   TransferFunction tf;
