@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 
 #include "base/error.h"
@@ -565,6 +566,10 @@ void read_params(const JsonReader& r, const json& j, const std::string& field,
         r.require_object(v, at, p.group_hint);
         read_params(r, v, at, p.children, box, d, false);
         break;
+      case ParamKind::File:
+        d.*std::get<std::string DeformerSpec::*>(p.field) =
+            r.existing_file(v, at, std::filesystem::path(r.file()).parent_path()).string();
+        break;
     }
   }
 }
@@ -630,6 +635,10 @@ void key_params(const std::vector<ParamDecl>& params, const DeformerSpec& d, std
         key_params(p.children, d, out);
         out += "} ";
         break;
+      case ParamKind::File:
+        // The path; the bake adds the file's content hash to the keys of what it reads.
+        out += d.*std::get<std::string DeformerSpec::*>(p.field) + " ";
+        break;
     }
   }
 }
@@ -679,6 +688,11 @@ void describe_params(const std::vector<ParamDecl>& params, const DeformerSpec& d
         value = "{" + inner + "}";
         break;
       }
+      case ParamKind::File:
+        value = std::filesystem::path(d.*std::get<std::string DeformerSpec::*>(p.field))
+                    .filename()
+                    .string();
+        break;
     }
     out += (out.empty() ? "" : ", ") + p.key + " " + value;
   }
@@ -715,6 +729,8 @@ std::string range_text(const ParamDecl& p) {
       return "list of drags";
     case ParamKind::Group:
       return "object";
+    case ParamKind::File:
+      return "a mesh file";
   }
   return "";
 }

@@ -75,6 +75,10 @@ struct DeformerSpec {
   double density = 1000, ks = 0, kd = 0, dt = 0.01, sim_steps = 100;
   Eigen::Vector3d gravity = Eigen::Vector3d(0, -9.81, 0);  // box frame
   std::vector<Drag> drags;                                 // box frame
+  // from_mesh: the deformed copy of the mesh (resolved against the scene file's folder), the
+  // morph target read from it (-1: the file's own vertices) and its weight, the fit's lattice.
+  std::string target;
+  double morph = -1, weight = 1, fit_resolution = 48;
 };
 
 // How a parameter is written in JSON and where it is stored.
@@ -89,6 +93,7 @@ enum class ParamKind {
   Direction,  // [x, y, z], object axes, turned into the box frame -> Vector3d field
   Drags,      // [{"sub_min": .., "sub_max": .., "path": [{"t": s, "offset": [x, y, z]}]}] -> drags
   Group,      // a JSON object of `children`, optional as a whole
+  File,       // a path relative to the scene file, which must exist -> string field (resolved)
 };
 
 struct ParamDecl {
@@ -101,7 +106,7 @@ struct ParamDecl {
   std::string hint;          // said when a required parameter is missing
   std::string default_text;  // for the table, when not required
   std::variant<std::monostate, double DeformerSpec::*, int DeformerSpec::*,
-               Eigen::Vector3d DeformerSpec::*>
+               Eigen::Vector3d DeformerSpec::*, std::string DeformerSpec::*>
       field;
   std::vector<ParamDecl> children;   // Group
   std::string group_hint;            // Group: an example object for messages

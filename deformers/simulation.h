@@ -92,6 +92,9 @@ struct SimulationParams {
 // > 0 inside), exact within the margin of the surface.
 struct SimulationInput {
   std::function<double(const Eigen::Vector3d&)> signed_distance;
+  // from_mesh: the mesh's vertices in the box and where the deformed copy puts them (box frame,
+  // one target per source).
+  std::vector<Eigen::Vector3d> sources, targets;
 };
 
 struct SimulationStats {

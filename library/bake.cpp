@@ -12,6 +12,7 @@
 #include "deformers/registry.h"
 #include "library/depth_cube.h"
 #include "library/implicit.h"
+#include "library/mesh_pairs.h"
 #include "library/triangle_bvh.h"
 #include "library/winding.h"
 
@@ -484,6 +485,34 @@ void BakeSession::keep(const std::string& key, std::shared_ptr<const void> value
   }
 }
 
+namespace {
+
+// The bytes a from_mesh target reads: the file, and for a glTF the buffers its "uri"s name
+// beside it.
+std::string target_hash(const std::string& file) {
+  std::string h = file_hash(file);
+  const std::filesystem::path path(file);
+  if (path.extension() == ".gltf") {
+    try {
+      const nlohmann::json doc = read_json_file(path, "glTF file");
+      if (doc.contains("buffers") && doc["buffers"].is_array())
+        for (const auto& b : doc["buffers"])
+          if (b.is_object() && b.contains("uri") && b["uri"].is_string()) {
+            const std::string uri = b["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) == 0) continue;
+            const std::filesystem::path buffer = path.parent_path() / uri;
+            std::error_code ec;
+            if (std::filesystem::is_regular_file(buffer, ec)) h += " " + file_hash(buffer);
+          }
+    } catch (const Error&) {
+      // An unreadable glTF fails in the reader, with its message.
+    }
+  }
+  return h;
+}
+
+}  // namespace
+
 BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   if (!job.mesh) throw Error(job.where + ": no mesh");
   const BoxSpec& spec = job.spec;
@@ -611,7 +640,67 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   report.voxel = voxel;
 
   std::string simulation_key;
-  if (on_mesh) {
+  if (on_mesh && spec.deformer.type == "from_mesh") {
+    // A deformed copy of the mesh: the vertex pairs inside the box, fitted by the deformer. The
+    // key of what follows names the copy's bytes (and a glTF's buffers).
+    const DeformerSpec& d = spec.deformer;
+    const int morph = d.morph < 0 ? -1 : static_cast<int>(d.morph);
+    const auto started = std::chrono::steady_clock::now();
+    const MeshPairs pairs = [&] {
+      try {
+        return mesh_pairs(job.mesh->file.string(), mesh, d.target, morph, d.weight, spec.box);
+      } catch (const Error& e) {
+        throw Error(job.where + ".deformer.target: " + e.what());
+      }
+    }();
+    simulation_key = "\nfrom mesh" + job.mesh->hash + " target" + target_hash(d.target);
+    const double cell = 2.0 * spec.box.half_extents.maxCoeff() / d.fit_resolution;
+    const double bound = 2.0 * std::sqrt(3.0) * cell;
+    const TriangleBvh bvh(mesh);
+    SimulationInput part;
+    part.signed_distance = [&](const Eigen::Vector3d& q) {
+      const double dist = bvh.nearest_distance(spec.box.to_object(q), bound);
+      return implicit_value(tex, q) > 0.0 ? dist : -dist;
+    };
+    part.sources = pairs.sources;
+    part.targets = pairs.targets;
+    try {
+      out.deformer = make_deformer(d, spec.box.half_extents, part, &notes, interrupter);
+    } catch (const Error& e) {
+      throw Error(job.where + ".deformer: " + e.what());
+    }
+    for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
+    report.deformer = out.deformer->describe();
+    FromMeshReport fm;
+    fm.pairs = static_cast<long>(pairs.sources.size());
+    fm.file_vertices = pairs.file_vertices;
+    fm.mesh_vertices = pairs.mesh_vertices;
+    fm.torn = pairs.torn;
+    fm.largest_move = pairs.largest_move;
+    fm.moved_outside = pairs.moved_outside;
+    // How closely F meets the pairs: |F(s) - t| over them.
+    double sum2 = 0.0;
+    for (size_t i = 0; i < pairs.sources.size(); ++i) {
+      const double e = (out.deformer->forward(pairs.sources[i]) - pairs.targets[i]).norm();
+      fm.fit_max_error = std::max(fm.fit_max_error, e);
+      sum2 += e * e;
+    }
+    fm.fit_rms_error =
+        pairs.sources.empty() ? 0.0 : std::sqrt(sum2 / static_cast<double>(pairs.sources.size()));
+    fm.seconds = seconds_since(started);
+    report.from_mesh = fm;
+    if (pairs.torn > 0)
+      report.warnings.push_back(
+          {"torn_target", std::to_string(pairs.torn) +
+                              " vertices the mesh joins are pulled apart by the target (it tears "
+                              "the surface there): each is moved to the mean of its copies"});
+    if (pairs.moved_outside > 0)
+      report.warnings.push_back(
+          {"target_outside_box",
+           std::to_string(pairs.moved_outside) +
+               " vertices outside the box move in the target: they are drawn at rest; grow the "
+               "box to hold the whole deformation"});
+  } else if (on_mesh) {
     const SimulationParams params = simulation_params(spec.deformer);
     auto key_for = [&](const DeformerSpec& d) {
       return (Key() << "simulation\nmesh" << job.mesh->hash << "\n"

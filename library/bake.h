@@ -75,11 +75,24 @@ struct SimulationReport {
   long cg_capped = 0;      // implicit Euler solves stopped at the iteration cap
 };
 
+// A from_mesh deformer's pairs (library/mesh_pairs.h) and fit.
+struct FromMeshReport {
+  long pairs = 0;          // mesh vertices in the box, fitted
+  long file_vertices = 0;  // the mesh file's vertices, before identical ones were joined
+  long mesh_vertices = 0;
+  long torn = 0;            // joined vertices the target pulls apart
+  double largest_move = 0;  // object units
+  long moved_outside = 0;   // vertices outside the box the target moves
+  double fit_max_error = 0, fit_rms_error = 0;  // |F(source) - target| over the pairs
+  double seconds = 0;                           // reading the target and fitting
+};
+
 // Something a user should know about a bake. `code` is stable (front ends may key on it); the
 // message is one sentence with the figures.
 struct BakeWarning {
   std::string code;  // deformer_note | inverse_residual | texture_coarse | folds | torn_face |
-                     // open_mesh | max_steps_short | cache_store | empty_box | solver_cap
+                     // open_mesh | max_steps_short | cache_store | empty_box | solver_cap |
+                     // torn_target | target_outside_box
   std::string message;
 };
 
@@ -90,6 +103,7 @@ struct BakeReport {
   const StageReport* stage(Stage s) const;  // null when the job had no such stage
 
   std::optional<SimulationReport> simulation;  // a simulation deformer's body and run
+  std::optional<FromMeshReport> from_mesh;     // a from_mesh deformer's pairs
   double voxel = 0.0;  // the implicit's spacing: the unit of steps, seams and the errors below
   ImplicitChoice implicit_choice;  // how an automatic implicit resolution was chosen
   // Distance grid (stage DistanceGrid).

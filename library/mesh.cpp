@@ -124,7 +124,10 @@ void triangulate(const std::vector<Vertex>& vertices, const std::vector<int>& po
 
 // Every mesh the node tree instantiates, merged, vertices in the scene's root frame. The tree is
 // walked with an explicit stack: no file's nesting depth reaches the C++ stack.
-void merge_nodes(const aiScene& scene, const std::string& path, MergedMesh& out) {
+// With morph >= 0, each mesh's vertices are its morph target `morph` (assimp's aiAnimMesh, absolute
+// positions) blended by `weight`: base + weight (target - base).
+void merge_nodes(const aiScene& scene, const std::string& path, MergedMesh& out, int morph = -1,
+                 double weight = 1.0) {
   std::vector<std::pair<const aiNode*, aiMatrix4x4>> todo = {{scene.mRootNode, aiMatrix4x4()}};
   std::vector<int> polygon;
   while (!todo.empty()) {
@@ -137,8 +140,21 @@ void merge_nodes(const aiScene& scene, const std::string& path, MergedMesh& out)
     for (unsigned m = 0; m < node.mNumMeshes; ++m) {
       const aiMesh& mesh = *scene.mMeshes[node.mMeshes[m]];
       const int base = static_cast<int>(out.vertices.size());
+      const aiAnimMesh* target = nullptr;
+      if (morph >= 0) {
+        if (static_cast<unsigned>(morph) >= mesh.mNumAnimMeshes ||
+            mesh.mAnimMeshes[morph] == nullptr || mesh.mAnimMeshes[morph]->mVertices == nullptr ||
+            mesh.mAnimMeshes[morph]->mNumVertices != mesh.mNumVertices)
+          throw Error(path + ": mesh " + std::to_string(node.mMeshes[m]) + " has " +
+                      std::to_string(mesh.mNumAnimMeshes) + " morph targets with positions: no " +
+                      "morph " + std::to_string(morph) + " (allowed [0, " +
+                      std::to_string(mesh.mNumAnimMeshes) + "))");
+        target = mesh.mAnimMeshes[morph];
+      }
       for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
-        const aiVector3D p = transform * mesh.mVertices[v];
+        aiVector3D local = mesh.mVertices[v];
+        if (target) local = local + (target->mVertices[v] - local) * static_cast<ai_real>(weight);
+        const aiVector3D p = transform * local;
         for (int a = 0; a < 3; ++a)
           if (!std::isfinite(p[a]))
             throw Error(path + ": cannot read mesh: mesh " + std::to_string(node.mMeshes[m]) +
@@ -171,7 +187,7 @@ void merge_nodes(const aiScene& scene, const std::string& path, MergedMesh& out)
 // Joins vertices with identical positions. assimp's JoinIdenticalVertices also compares
 // normals and texture coordinates, so it leaves STL corners (one normal per facet) and the
 // seams between the meshes of one file split; the surface's topology needs positions only.
-Mesh weld(const MergedMesh& merged) {
+Mesh weld(const MergedMesh& merged, std::vector<int>* joined = nullptr) {
   std::unordered_map<Vertex, int, VertexHash> index;
   index.reserve(merged.vertices.size());
   std::vector<int> remap(merged.vertices.size());
@@ -190,6 +206,7 @@ Mesh weld(const MergedMesh& merged) {
   for (size_t f = 0; f < merged.faces.size(); ++f) {
     for (int c = 0; c < 3; ++c) mesh.F(static_cast<Eigen::Index>(f), c) = remap[merged.faces[f][c]];
   }
+  if (joined) *joined = std::move(remap);
   return mesh;
 }
 
@@ -202,19 +219,17 @@ std::string format_point(const Eigen::Vector3d& p) {
 
 }  // namespace
 
-Mesh load_mesh(const std::string& path) {
-  const MeshFileBytes file = read_mesh_file(path);
-  const bool compressed = path.size() > 3 && path.compare(path.size() - 3, 3, ".xz") == 0;
-  // A file of a checked format (or a compressed one) is parsed from the bytes just checked; other
-  // formats may name files beside them (glTF buffers, OBJ materials), so assimp opens them.
-  if (mesh_format_is_checked(file.format) || compressed)
-    return load_mesh_bytes(file.bytes, file.format, path);
-  return load_mesh_bytes("", file.format, path);
-}
 
-Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path) {
+namespace {
+
+// The file's meshes merged (vertices in the file's order); with morph >= 0 the morph target's
+// positions (merge_nodes). `morph_targets`: the most morph targets one of its meshes has.
+MergedMesh read_merged(const std::string& bytes, const std::string& format, const std::string& path,
+                       int morph = -1, double weight = 1.0, int* morph_targets = nullptr) {
   MergedMesh merged;
   size_t meshes = 1;
+  if (morph >= 0 && format == "ply")
+    throw Error(path + ": a PLY file holds no morph targets (glTF does)");
   if (format == "ply") {
     PolygonSoup soup = read_ply(bytes, path);
     merged.vertices = std::move(soup.vertices);
@@ -239,14 +254,49 @@ Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const 
     if (scene == nullptr || scene->mRootNode == nullptr) {
       throw Error(path + ": cannot read mesh: " + importer.GetErrorString());
     }
-    merge_nodes(*scene, path, merged);
+    merge_nodes(*scene, path, merged, morph, weight);
     meshes = scene->mNumMeshes;
+    if (morph_targets)
+      for (unsigned m = 0; m < scene->mNumMeshes; ++m)
+        *morph_targets =
+            std::max(*morph_targets, static_cast<int>(scene->mMeshes[m]->mNumAnimMeshes));
   }
   if (merged.faces.empty()) {
     throw Error(path + ": cannot read mesh: no triangles (" + std::to_string(meshes) + " meshes, " +
                 std::to_string(merged.vertices.size()) +
                 " vertices); a mesh needs at least one triangle");
   }
+  return merged;
+}
+
+// The bytes of `path` as load_mesh reads them (empty: assimp opens the file itself).
+MeshFileBytes mesh_bytes_for(const std::string& path) {
+  MeshFileBytes file = read_mesh_file(path);
+  const bool compressed = path.size() > 3 && path.compare(path.size() - 3, 3, ".xz") == 0;
+  // A file of a checked format (or a compressed one) is parsed from the bytes just checked; other
+  // formats may name files beside them (glTF buffers, OBJ materials), so assimp opens them.
+  if (!mesh_format_is_checked(file.format) && !compressed) file.bytes.clear();
+  return file;
+}
+
+}  // namespace
+
+FileVertices load_file_vertices(const std::string& path, int morph, double weight) {
+  if (!std::isfinite(weight))
+    throw Error(path + ": morph weight " + std::to_string(weight) + ": must be finite");
+  const MeshFileBytes file = mesh_bytes_for(path);
+  FileVertices out;
+  const MergedMesh base = read_merged(file.bytes, file.format, path, -1, 1.0, &out.morph_targets);
+  weld(base, &out.joined);
+  const MergedMesh moved =
+      morph >= 0 ? read_merged(file.bytes, file.format, path, morph, weight) : base;
+  out.positions.reserve(moved.vertices.size());
+  for (const Vertex& v : moved.vertices) out.positions.emplace_back(v[0], v[1], v[2]);
+  return out;
+}
+
+Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path) {
+  const MergedMesh merged = read_merged(bytes, format, path);
   Mesh mesh = weld(merged);
   const MeshStats stats = mesh_stats(mesh);
   if (stats.degenerate_faces == stats.faces) {
@@ -259,6 +309,11 @@ Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const 
     mesh.reoriented = true;
   }
   return mesh;
+}
+
+Mesh load_mesh(const std::string& path) {
+  const MeshFileBytes file = mesh_bytes_for(path);
+  return load_mesh_bytes(file.bytes, file.format, path);
 }
 
 double signed_volume(const Mesh& mesh) {

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace raywarp {
 
@@ -35,6 +36,19 @@ Mesh load_mesh(const std::string& path);
 // "ply"), checked by check_mesh_bytes (library/mesh_file.h) before assimp parses them; `path`
 // names it in messages. Empty `bytes` make assimp open `path` itself.
 Mesh load_mesh_bytes(const std::string& bytes, const std::string& format, const std::string& path);
+
+// A mesh file's vertices in the file's own order, before identical ones are joined: their
+// positions and, for each, the row of load_mesh's V it was joined into. With morph >= 0 (a file
+// with morph targets: glTF through assimp's aiAnimMesh), the positions are each mesh's morph
+// target `morph` blended by `weight`, base + weight (target - base), while `joined` stays that of
+// the base shape. Throws Error naming the file (as load_mesh, or a morph target it lacks).
+struct FileVertices {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<int> joined;
+  int morph_targets = 0;  // the most morph targets one of the file's meshes has
+};
+FileVertices load_file_vertices(const std::string& path, int morph = -1, double weight = 1.0);
+
 MeshStats mesh_stats(const Mesh& mesh);
 // Calls use(u, w, faces) once per distinct edge {u, w} (u < w) of non-collapsed triangle sides,
 // with the number of triangles using it: 1 is a boundary edge, 3 or more a non-manifold one.

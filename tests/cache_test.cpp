@@ -158,6 +158,9 @@ TEST(BakeCache, KeysNameEveryDeformerParameter) {
         break;
       case ParamKind::Group:
         break;
+      case ParamKind::File:
+        d.*std::get<std::string DeformerSpec::*>(p.field) += "_other";
+        break;
     }
   };
   int checked = 0;

@@ -70,8 +70,10 @@ json scene_json(const Instance& in) {
   return j;
 }
 
+// Read as from a scene file in the source folder, so that file parameters resolve against it.
 DeformerSpec read(const json& j) {
-  return read_deformer(JsonReader("contract.json"), j, "deformer", contract_box());
+  return read_deformer(JsonReader(std::string(RAYWARP_SOURCE_DIR) + "/contract.json"), j,
+                       "deformer", contract_box());
 }
 
 // The message read_deformer refuses `j` with, or "(accepted)".
@@ -101,6 +103,16 @@ class DeformerContract : public ::testing::TestWithParam<Instance> {
     part.signed_distance = [](const Eigen::Vector3d& q) {
       return 0.6 - Eigen::Vector2d(q.x(), q.z()).norm();
     };
+    // A type fitted to vertex pairs (from_mesh) gets the cylinder's surface turned about y by up
+    // to 0.35 rad at mid-height, not at all at the -y and +y faces it crosses.
+    for (int i = 0; i < 40; ++i)
+      for (int j = 0; j < 24; ++j) {
+        const double y = -kHalf.y() + 2.0 * kHalf.y() * i / 39.0;
+        const double a = 2.0 * M_PI * j / 24.0;
+        const double turn = 0.35 * std::sin(M_PI * (y + kHalf.y()) / (2.0 * kHalf.y()));
+        part.sources.emplace_back(0.6 * std::cos(a), y, 0.6 * std::sin(a));
+        part.targets.emplace_back(0.6 * std::cos(a + turn), y, 0.6 * std::sin(a + turn));
+      }
     deformer_ = make_deformer(spec_, contract_box().half_extents, part);
     ASSERT_TRUE(deformer_);
   }
@@ -309,6 +321,8 @@ std::vector<json> wrong_values(ParamKind kind) {
       return {"w", 0.5, json::array({0, 1}), json::array({0, "a", 1})};
     case ParamKind::Drags:
       return {"w", 1, json::object({{"path", json::array()}})};
+    case ParamKind::File:
+      return {"no_such_file.ply", 1, "", json::array({"a.ply"})};
   }
   return {};
 }
