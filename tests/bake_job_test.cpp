@@ -23,14 +23,14 @@ Scene example(const std::string& name) {
   return load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/" + name);
 }
 
-// The example with 64-texel grids: what a cancel or a cache read does depends on the stages, not on
-// their sizes (and the sanitizer pass runs these tests too).
+// The example with small grids (testing::kSmallGrid texels: 64, 24 under the sanitizers): what a
+// cancel or a cache read does depends on the stages, not on their sizes.
 Scene small_example(const std::string& name) {
   Scene scene = example(name);
   for (BoxSpec& box : scene.boxes) {
-    box.implicit.resolution = 64;
-    box.deformation_resolution = 64;
-    box.alpha_resolution = 64;
+    box.implicit.resolution = std::max(32, raywarp::testing::kSmallGrid);
+    box.deformation_resolution = raywarp::testing::kSmallGrid;
+    box.alpha_resolution = raywarp::testing::kSmallGrid;
   }
   return scene;
 }
@@ -111,7 +111,7 @@ TEST(BakeJob, BakesOneBoxAndReportsEveryFigure) {
 }
 
 TEST(BakeJob, ChangingTheAngleRebakesOnlyTheDeformationTexture) {
-  Scene scene = example("bunny_twist.json");
+  Scene scene = small_example("bunny_twist.json");
   const fs::path dir = fresh_dir("stages");
   BakeCache cache(dir);
   BakeSession session(&cache);
@@ -184,6 +184,7 @@ TEST(BakeJob, CancelledDistanceGridLeavesNothingBehind) {
 
   // The next job starts at once and completes.
   scene.boxes[0].implicit.resolution = 64;
+  scene.boxes[0].deformation_resolution = raywarp::testing::kSmallGrid;
   const BakedBox next = session.bake(make_job(scene, 0, mesh));
   EXPECT_EQ(session.counters().distance_grid, 1);
   EXPECT_EQ(next.report.stage(Stage::DistanceGrid)->resolution.maxCoeff(), 64 + 4);

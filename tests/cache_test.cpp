@@ -11,6 +11,7 @@
 #include "cli/pipeline.h"
 #include "library/bake_cache.h"
 #include "library/scene.h"
+#include "tests/sanitizer.h"
 
 using namespace raywarp;
 namespace fs = std::filesystem;
@@ -77,12 +78,11 @@ TEST(BakeCache, SecondPreparationBakesNothing) {
   BakeCache cache(dir);
   for (const char* name : {"bunny_twist.json", "bunny_cut_solid.json"}) {
     Scene scene = load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/" + name);
-    // 64-texel grids: what the cache keeps does not depend on the sizes (and the sanitizer pass
-    // runs this test too).
+    // Small grids: what the cache keeps does not depend on the sizes (testing::kSmallGrid).
     for (BoxSpec& box : scene.boxes) {
-      box.implicit.resolution = 64;
-      box.deformation_resolution = 64;
-      box.alpha_resolution = 64;
+      box.implicit.resolution = std::max(32, raywarp::testing::kSmallGrid);
+      box.deformation_resolution = raywarp::testing::kSmallGrid;
+      box.alpha_resolution = raywarp::testing::kSmallGrid;
     }
     double first_s = 0, second_s = 0;
     PreparedScene first = prepare(scene, &cache, &first_s);
@@ -110,8 +110,8 @@ TEST(BakeCache, SecondPreparationBakesNothing) {
   }
   // A new angle re-bakes the deformation texture only.
   Scene twist = load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/bunny_twist.json");
-  twist.boxes[0].implicit.resolution = 64;  // as above
-  twist.boxes[0].deformation_resolution = 64;
+  twist.boxes[0].implicit.resolution = std::max(32, raywarp::testing::kSmallGrid);  // as above
+  twist.boxes[0].deformation_resolution = raywarp::testing::kSmallGrid;
   twist.boxes[0].deformer.angle_deg = 200;
   double s = 0;
   EXPECT_EQ(prepare(twist, &cache, &s).bakes, 1);

@@ -19,6 +19,10 @@
 namespace raywarp::testing {
 
 constexpr int kSampleDivisor = RAYWARP_UNDER_SANITIZER ? 4 : 1;
+// The side of the small grids the bake tests use (distance grid, deformation texture, alpha map):
+// what a cancel or a cache read does depends on the stages, not on their sizes, and under the
+// sanitizers a 64³ deformation texture took a minute a test.
+constexpr int kSmallGrid = RAYWARP_UNDER_SANITIZER ? 24 : 64;
 constexpr int samples(int n) { return n / kSampleDivisor; }
 
 }  // namespace raywarp::testing

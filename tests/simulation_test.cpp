@@ -20,6 +20,7 @@
 #include "library/bake.h"
 #include "library/deformation_bake.h"
 #include "library/scene.h"
+#include "tests/sanitizer.h"
 
 namespace raywarp {
 namespace {
@@ -365,7 +366,8 @@ TEST(Simulation, BakesThroughTheSession) {
   const std::string text = R"({"mesh": ")" + std::string(RAYWARP_SOURCE_DIR) +
                            R"(/examples/meshes/bunny.ply", "boxes": [{"min": [-5.2, 4, -4],
       "max": [5.2, 9.9, 4], "implicit": {"type": "sdf", "resolution": 64},
-      "deformation": {"resolution": 48},
+      "deformation": {"resolution": )" +
+                           std::to_string(std::min(48, raywarp::testing::kSmallGrid)) + R"(},
       "deformer": {"type": "simulation", "resolution": 8, "ks": 3e4, "kd": 20, "density": 100,
                    "steps": 30, "drags": [{"sub_min": [0, 0.8, 0],
                    "path": [{"t": 0.3, "offset": [1.5, 0, 0]}]}]}}]})";
