@@ -11,6 +11,7 @@
 #include "deformers/bend.h"
 #include "deformers/box_cut.h"
 #include "deformers/control_points.h"
+#include "deformers/from_mesh.h"
 #include "deformers/incision.h"
 #include "deformers/peel.h"
 #include "deformers/stretch.h"
@@ -168,6 +169,29 @@ void check_simulation(const JsonReader& r, const json& j, const std::string& fie
   for (const auto& [key, value] :
        {std::pair<const char*, double>{"resolution", d.sim_resolution}, {"steps", d.sim_steps}})
     if (value != std::floor(value)) r.fail(child(field, key), j[key], "must be a whole number");
+}
+
+// The box faces the mesh part crosses: those where its signed distance is > 0 at a sample of a
+// lattice of `resolution` cells along the box's longest side.
+std::array<bool, 6> crossed_faces(const Eigen::Vector3d& h, const SimulationInput& part,
+                                  int resolution) {
+  std::array<bool, 6> faces{};
+  if (!part.signed_distance) return faces;
+  const double cell = 2.0 * h.maxCoeff() / std::max(1, resolution);
+  Eigen::Vector3i n;
+  for (int a = 0; a < 3; ++a) n[a] = std::max(1, static_cast<int>(std::lround(2.0 * h[a] / cell)));
+  for (int f = 0; f < 6; ++f) {
+    const int axis = f / 2, u = (axis + 1) % 3, v = (axis + 2) % 3;
+    for (int i = 0; i <= n[u] && !faces[f]; ++i)
+      for (int j = 0; j <= n[v] && !faces[f]; ++j) {
+        Eigen::Vector3d q;
+        q[axis] = (f % 2) ? h[axis] : -h[axis];
+        q[u] = -h[u] + 2.0 * h[u] * i / n[u];
+        q[v] = -h[v] + 2.0 * h[v] * j / n[v];
+        faces[f] = part.signed_distance(q) > 0.0;
+      }
+  }
+  return faces;
 }
 
 std::vector<DeformerType> make_registry() {
@@ -465,6 +489,62 @@ std::vector<DeformerType> make_registry() {
          {"pins", {"-y"}},
          {"drags",
           {{{"sub_min", {0, 0.9, 0}}, {"path", {{{"t", 0.1}, {"offset", {0.05, 0, 0}}}}}}}}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "from_mesh";
+    t.summary =
+        "a deformation authored elsewhere: a deformed copy of the mesh (same vertices, same "
+        "order) or a glTF morph target, its vertex pairs in the box fitted by a smooth field "
+        "over the box (docs/from_mesh.md)";
+    ParamDecl target;
+    target.key = "target";
+    target.kind = ParamKind::File;
+    target.required = true;
+    target.meaning =
+        "the deformed copy: a mesh file with the scene mesh's vertices in the same order "
+        "(PLY, OBJ, STL, OFF, glTF, ...), or a glTF whose morph target `morph` is read";
+    target.hint = "give the deformed copy of the mesh, relative to the scene file";
+    target.field = &DeformerSpec::target;
+    ParamDecl pins;
+    pins.key = "pins";
+    pins.kind = ParamKind::Faces;
+    pins.meaning = "box faces held at rest; default: the faces the mesh crosses";
+    pins.default_text = "the faces the mesh crosses";
+    t.params = {target,
+                number_param("morph", &DeformerSpec::morph, closed(0, 1e6), "",
+                             "the morph target of `target` to read (glTF); none: the file's own "
+                             "vertices",
+                             "", "none"),
+                number_param("weight", &DeformerSpec::weight, closed(-10, 10), "",
+                             "the morph target's weight: base + weight (target - base)", "", "1"),
+                number_param("resolution", &DeformerSpec::fit_resolution, closed(4, 256), "cells",
+                             "the fit's lattice cells along the box's longest side", "", "48"),
+                pins};
+    t.check = [](const JsonReader& r, const json& j, const std::string& field,
+                 const DeformerSpec& d) {
+      if (j.contains("morph") && d.morph != std::floor(d.morph))
+        r.fail(child(field, "morph"), j["morph"], "must be an integer >= 0");
+      if (j.contains("weight") && !j.contains("morph"))
+        r.fail(child(field, "weight"), j["weight"], "applies to a morph target: give \"morph\"");
+      if (j.contains("resolution") && d.fit_resolution != std::floor(d.fit_resolution))
+        r.fail(child(field, "resolution"), j["resolution"], "must be an integer in [4, 256]");
+    };
+    t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h,
+                        const SimulationInput& part, std::vector<std::string>* w,
+                        Interrupter* interrupter) -> std::unique_ptr<Deformer> {
+      FromMeshParams params;
+      params.resolution = static_cast<int>(d.fit_resolution);
+      params.pinned = d.pinned_given ? d.pinned : crossed_faces(h, part, params.resolution);
+      if (part.sources.empty() || part.sources.size() != part.targets.size())
+        throw Error("target: no vertex of the mesh lies in the box: nothing to fit");
+      std::vector<PointPair> pairs(part.sources.size());
+      for (size_t i = 0; i < pairs.size(); ++i) pairs[i] = {part.sources[i], part.targets[i]};
+      (void)w;
+      return make_from_mesh(h, pairs, params, nullptr, interrupter);
+    };
+    t.examples = {{{"target", "examples/meshes/bunny.ply"}, {"resolution", 16}}};
     types.push_back(std::move(t));
   }
   return types;
