@@ -24,7 +24,7 @@ constexpr int kMaxIterations = 200;  // conjugate gradient iterations
 constexpr double kSourceTolerance = 1e-9;  // of the box diagonal: a source that far out is moved in
 constexpr double kEpsilon = 1e-10;         // eps, of R's largest diagonal entry
 // Below this least spread of the sources (the smallest eigenvalue of their scatter, over the
-// lattice's nodes and the box diagonal squared) the cycle runs in double (see Solver).
+// lattice's nodes and the box diagonal squared) the cycle runs in double (see make_from_mesh).
 constexpr double kFlatSpread = 1e-9;
 
 std::string vector_text(const Eigen::Vector3d& v) {
@@ -666,15 +666,20 @@ typename Solver<Real>::Result Solver<Real>::solve() {
   Level& l0 = levels_[0];
   const long m = 3 * l0.count;
   std::vector<double> x(m, 0.0), r(m, 0.0), z(m, 0.0), p(m, 0.0), q(m, 0.0);
-  // r = B^T d + eps a, a the pairs' affine fit: eps pulls u towards it, so that an affine map is
+  // b = B^T d + eps a, a the pairs' affine fit: eps pulls u towards it, so that an affine map is
   // met exactly, and u is that fit along what nothing else holds (a pair: a translation; pairs
-  // on a plane: no change across it).
+  // on a plane: no change across them). Conjugate gradients start from u = a (0 on the fixed
+  // nodes): they are then left the fit's remainder, and the fields only eps holds, where a
+  // residual is no measure of the error, start right (one pair: no iteration at all).
   for_nodes(l0, [&](long n) {
     if (l0.fixed[n]) return;
     const Eigen::Vector3d rest =
         -p_.h + l0.spacing.cwiseProduct(l0.node_of(n).template cast<double>());
     const Eigen::Vector3d a = p_.mean_d + p_.gradient * (rest - p_.mean_s);
-    for (int k = 0; k < 3; ++k) r[3 * n + k] = l0.eps * a[k];
+    for (int k = 0; k < 3; ++k) {
+      x[3 * n + k] = a[k];
+      r[3 * n + k] = l0.eps * a[k];
+    }
   });
   for (size_t i = 0; i < p_.sources->size(); ++i) {
     Eigen::Vector3i cell;
@@ -704,7 +709,12 @@ typename Solver<Real>::Result Solver<Real>::solve() {
   };
   Result result;
   const double b_norm = dot(r, r).cwiseSqrt().maxCoeff();
-  if (b_norm > 0.0) {
+  apply<true>(l0, x.data(), q.data());  // r = b - A a
+  for_nodes(l0, [&](long n) {
+    for (int c = 0; c < 3; ++c) r[3 * n + c] -= q[3 * n + c];
+  });
+  result.relative_residual = b_norm > 0.0 ? dot(r, r).cwiseSqrt().maxCoeff() / b_norm : 0.0;
+  if (result.relative_residual > p_.params.tolerance) {
     precondition();
     p = z;
     Eigen::Vector3d rz = dot(r, z);
