@@ -75,6 +75,16 @@ void write_ply(const std::string& path, const PolygonSoup& soup) {
   }
 }
 
+// The faces F holds at the identity, as a scene's "pins" list.
+json held_faces(const Deformer& F) {
+  json pins = json::array();
+  const std::array<bool, 6> held = F.identity_faces();
+  for (int f = 0; f < 6; ++f)
+    if (held[static_cast<size_t>(f)])
+      pins.push_back(std::string(1, "-+"[f % 2]) + char('x' + f / 2));
+  return pins;
+}
+
 void expect_thresholds(const std::string& name, const ImageComparison& c, const Image& gl,
                        const Image& truth) {
   std::printf(
@@ -128,11 +138,7 @@ TEST_P(CopiesOfExactDeformations, RenderWithinTheThresholdsOfTheAnalyticMap) {
   write_ply(target, moved_soup(exact.mesh.string(), spec.box, *F));
 
   // The faces the analytic map holds are the ones to pin (a bend moves a face the mesh crosses).
-  json pins = json::array();
-  const std::array<bool, 6> held = F->identity_faces();
-  for (int f = 0; f < 6; ++f)
-    if (held[static_cast<size_t>(f)])
-      pins.push_back(std::string(f % 2 ? "+" : "-") + char('x' + f / 2));
+  const json pins = held_faces(*F);
   json doc = read_scene_document(scene_file);
   doc["boxes"][0]["deformer"] = {{"type", "from_mesh"}, {"target", target}, {"pins", pins}};
   // The reference: the analytic map of the same (possibly edited) deformer.
@@ -273,11 +279,7 @@ TEST(FromMesh, GltfMorphTargetsRenderWithinTheThresholdsOfTheTargets) {
   for (int morph = 0; morph < 2; ++morph) {
     json doc = read_scene_document(files[static_cast<size_t>(morph)]);
     doc["mesh"] = gltf;
-    json pins = json::array();
-    const std::array<bool, 6> held = maps[static_cast<size_t>(morph)]->identity_faces();
-    for (int f = 0; f < 6; ++f)
-      if (held[static_cast<size_t>(f)])
-        pins.push_back(std::string(f % 2 ? "+" : "-") + char('x' + f / 2));
+    const json pins = held_faces(*maps[static_cast<size_t>(morph)]);
     doc["boxes"][0]["deformer"] = {
         {"type", "from_mesh"}, {"target", gltf}, {"morph", morph}, {"pins", pins}};
     const Scene scene = load_scene_json(doc, files[static_cast<size_t>(morph)]);
