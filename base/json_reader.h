@@ -140,16 +140,22 @@ class JsonReader {
   }
 
   // An existing file named relative to the scene file's folder.
+  // `folder_ok`: a folder is accepted too.
   std::filesystem::path existing_file(const nlohmann::json& v, const std::string& field,
-                                      const std::filesystem::path& folder) const {
+                                      const std::filesystem::path& folder,
+                                      bool folder_ok = false) const {
     if (!v.is_string() || v.get<std::string>().empty())
       fail(field, v, "must be a path (string) relative to the scene file");
     std::filesystem::path resolved = (folder / v.get<std::string>()).lexically_normal();
     std::error_code ec;
     if (!std::filesystem::exists(resolved, ec))
       fail(field, v, "no such file: " + resolved.string());
+    if (folder_ok && std::filesystem::is_directory(resolved, ec)) return resolved;
     if (!std::filesystem::is_regular_file(resolved, ec))
-      fail(field, v, "not a regular file: " + resolved.string());
+      fail(field, v,
+           std::string(folder_ok ? "neither a regular file nor a folder: "
+                                 : "not a regular file: ") +
+               resolved.string());
     return resolved;
   }
 

@@ -1,5 +1,6 @@
 #include "cli/animate.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/gif.h"
+#include "library/mesh_pairs.h"
 #include "library/scene.h"
 #include "library/texture_map.h"
 
@@ -88,6 +90,40 @@ void set_field(json& doc, const AnimatedParam& param, double value, const fs::pa
   *node = value;
 }
 
+}  // namespace
+
+json document_at(const json& document, const std::vector<AnimatedParam>& params, int frame,
+                 int frames, const fs::path& scene) {
+  json doc = document;
+  for (const auto& p : params) set_field(doc, p, p.at(frame, frames), scene);
+  return doc;
+}
+
+std::vector<AnimatedParam> sequence_params(const Scene& scene, int* longest) {
+  std::vector<AnimatedParam> out;
+  int most = 0;
+  for (size_t i = 0; i < scene.boxes.size(); ++i) {
+    const DeformerSpec& d = scene.boxes[i].deformer;
+    if (d.type != "from_mesh" || d.morph >= 0) continue;
+    const int frames = sequence_frames(d.target);
+    if (frames <= 0) continue;
+    AnimatedParam p;
+    p.path = "boxes[" + std::to_string(i) + "].deformer.frame";
+    p.from = 0;
+    p.to = frames - 1;
+    out.push_back(p);
+    most = std::max(most, frames);
+  }
+  if (out.empty())
+    throw Error("--sequence: " + scene.file.string() +
+                ": no box's from_mesh target is a sequence (a folder of deformed copies, or a "
+                "glTF with morph targets and no \"morph\" given)");
+  if (longest) *longest = most;
+  return out;
+}
+
+namespace {
+
 // The box whose twist angle alone is animated, when M can animate it; -1 otherwise, with the
 // reason in `why`.
 int mapped_twist_box(const Scene& scene, const std::vector<AnimatedParam>& params,
@@ -137,9 +173,8 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
     throw Error("--frames: give at least one --param FIELD=FROM:TO to animate");
   const json document = read_scene_document(opt.scene);
   auto scene_at = [&](int frame) {
-    json doc = document;
-    for (const auto& p : opt.params) set_field(doc, p, p.at(frame, opt.frames), opt.scene);
-    return load_scene_json(doc, opt.scene);
+    return load_scene_json(document_at(document, opt.params, frame, opt.frames, opt.scene),
+                           opt.scene);
   };
   // Every frame's scene is validated before anything is baked or written.
   std::vector<Scene> scenes;

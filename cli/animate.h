@@ -10,11 +10,13 @@
 #pragma once
 #include <filesystem>
 #include <iosfwd>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "library/bake_cache.h"
 #include "library/image.h"
+#include "library/scene.h"
 
 namespace raywarp {
 
@@ -28,6 +30,17 @@ struct AnimatedParam {
 };
 // Parses PATH=FROM:TO; throws Error saying what is expected.
 AnimatedParam parse_animated_param(const std::string& text);
+
+// The scene document with each parameter set to its value at `frame` of `frames`. Throws Error
+// naming `scene` and the parameter when its path is not a numeric field of the document.
+nlohmann::json document_at(const nlohmann::json& document, const std::vector<AnimatedParam>& params,
+                           int frame, int frames, const std::filesystem::path& scene);
+
+// `--sequence`: for each box whose from_mesh target is a sequence (a folder of copies, or a glTF
+// with morph targets and no `morph` given; library/mesh_pairs.h), its frame from 0 to its last.
+// `longest` receives the longest sequence's frame count. Throws Error naming the scene when no
+// box has one.
+std::vector<AnimatedParam> sequence_params(const Scene& scene, int* longest);
 
 struct AnimationOptions {
   std::filesystem::path scene;

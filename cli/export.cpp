@@ -1,7 +1,9 @@
 #include "cli/export.h"
 
+#include <cstdio>
 #include <ostream>
 
+#include "base/atomic_file.h"
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/engine_bundles.h"
@@ -20,23 +22,17 @@ BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh) {
   return job;
 }
 
-std::string export_stem(const fs::path& scene, size_t index) {
-  return scene.stem().string() + "_box" + std::to_string(index);
-}
+namespace {
 
-std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
-                                            const ExportOptions& options, const fs::path& out,
-                                            BakeSession& session, std::ostream& log, int only) {
-  const nlohmann::json document = read_scene_document(scene_file);
-  const Scene scene = load_scene_json(document, scene_file);
-  if (only >= static_cast<int>(scene.boxes.size()))
-    throw Error("--box " + std::to_string(only) + ": " + scene_file.string() + " has " +
-                std::to_string(scene.boxes.size()) + " boxes (0 to " +
-                std::to_string(int(scene.boxes.size()) - 1) + ")");
+// Bakes and exports the boxes of one scene (document and its loaded scene) with stems
+// SCENESTEM_boxI + suffix; appends each exported box's textures to `exported`.
+std::vector<nlohmann::json> export_boxes(const fs::path& scene_file, const nlohmann::json& document,
+                                         const Scene& scene, const ExportOptions& options,
+                                         const fs::path& out, BakeSession& session,
+                                         std::ostream& log, int only, const std::string& suffix,
+                                         std::vector<BoxTextures>& exported) {
   MeshPtr mesh = session.mesh(scene.mesh);
-  log << "mesh: " << describe(mesh->stats) << "\n";
   std::vector<nlohmann::json> sidecars;
-  std::vector<BoxTextures> exported;  // for the shaders: each box as a consumer loads it
   for (size_t i = 0; i < scene.boxes.size(); ++i) {
     if (only >= 0 && static_cast<int>(i) != only) continue;
     const std::string tag = "box " + std::to_string(i) + ": ";
@@ -47,7 +43,7 @@ std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
     const BakedBox baked = bake_logged(session, export_job(scene, i, mesh), log, tag);
     ExportSource source = export_source(scene, document, i, *mesh);
     source.input_hash = export_input_hash(source.mesh_hash, source.box, options);
-    const std::string stem = export_stem(scene_file, i);
+    const std::string stem = export_stem(scene_file, i) + suffix;
     nlohmann::json side = export_box(baked, source, options, out, stem);
     for (const auto& f : side["files"])
       log << tag << "wrote " << (out / f["file"].get<std::string>()).string() << " ("
@@ -57,21 +53,131 @@ std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
     sidecars.push_back(std::move(side));
     exported.push_back(baked.textures);
   }
-  // The scene's ray-cast variants as standalone GLSL, for engines; with --box, that box's alone.
+  return sidecars;
+}
+
+void check_box(const Scene& scene, const fs::path& scene_file, int only) {
+  if (only >= static_cast<int>(scene.boxes.size()))
+    throw Error("--box " + std::to_string(only) + ": " + scene_file.string() + " has " +
+                std::to_string(scene.boxes.size()) + " boxes (0 to " +
+                std::to_string(int(scene.boxes.size()) - 1) + ")");
+}
+
+// The scene's ray-cast variants as standalone GLSL, and what each engine needs to import a box
+// (after the shaders: three.js's module reads them); `stems` name the sidecars' files.
+void write_bundles(const fs::path& scene_file, const Scene& scene,
+                   const std::vector<nlohmann::json>& sidecars,
+                   const std::vector<BoxTextures>& exported, const std::vector<std::string>& stems,
+                   const std::vector<size_t>& boxes, const fs::path& out, std::ostream& log) {
   const nlohmann::json shaders =
       write_shader_bundle(exported, scene.render, out, scene_file.stem().string());
   log << "shaders: wrote " << (out / shaders["uniforms"].get<std::string>()).string()
       << " and the GLSL 4.50 and ES 3.00 files it documents\n";
-  // What each engine needs to import the box (after the shaders: three.js's module reads them).
   for (size_t n = 0; n < sidecars.size(); ++n) {
-    const size_t i = only >= 0 ? size_t(only) : n;
-    const std::string stem = export_stem(scene_file, i);
-    const nlohmann::json engines = write_engine_bundles(sidecars[n], out, stem);
-    log << "box " << i << ": engine bundles in "
+    const nlohmann::json engines = write_engine_bundles(sidecars[n], out, stems[n]);
+    log << "box " << boxes[n] << ": engine bundles in "
         << (out / engines["folder"].get<std::string>()).string()
         << " (three.js, Unity, Unreal, Godot; each with CHECKLIST.md)\n";
   }
+}
+
+}  // namespace
+
+std::vector<nlohmann::json> bake_and_export(const fs::path& scene_file,
+                                            const ExportOptions& options, const fs::path& out,
+                                            BakeSession& session, std::ostream& log, int only) {
+  const nlohmann::json document = read_scene_document(scene_file);
+  const Scene scene = load_scene_json(document, scene_file);
+  check_box(scene, scene_file, only);
+  log << "mesh: " << describe(session.mesh(scene.mesh)->stats) << "\n";
+  std::vector<BoxTextures> exported;  // for the shaders: each box as a consumer loads it
+  std::vector<nlohmann::json> sidecars =
+      export_boxes(scene_file, document, scene, options, out, session, log, only, "", exported);
+  std::vector<std::string> stems;
+  std::vector<size_t> boxes;
+  for (size_t n = 0; n < sidecars.size(); ++n) {
+    boxes.push_back(only >= 0 ? size_t(only) : n);
+    stems.push_back(export_stem(scene_file, boxes.back()));
+  }
+  write_bundles(scene_file, scene, sidecars, exported, stems, boxes, out, log);
   return sidecars;
+}
+
+std::vector<nlohmann::json> bake_and_export_sequence(const fs::path& scene_file,
+                                                     const std::vector<AnimatedParam>& params,
+                                                     int frames, const ExportOptions& options,
+                                                     const fs::path& out, BakeSession& session,
+                                                     std::ostream& log, int only) {
+  if (frames < 2 || frames > 10000)
+    throw Error("--frames " + std::to_string(frames) + ": must be 2 to 10000");
+  if (params.empty())
+    throw Error("--frames: give --sequence or a --param FIELD=FROM:TO to animate");
+  const nlohmann::json document = read_scene_document(scene_file);
+  // Every frame's scene is validated before anything is baked or written.
+  std::vector<nlohmann::json> documents;
+  std::vector<Scene> scenes;
+  for (int f = 0; f < frames; ++f) {
+    documents.push_back(document_at(document, params, f, frames, scene_file));
+    scenes.push_back(load_scene_json(documents.back(), scene_file));
+  }
+  check_box(scenes[0], scene_file, only);
+  log << "mesh: " << describe(session.mesh(scenes[0].mesh)->stats) << "\n";
+  std::vector<size_t> boxes;
+  for (size_t i = 0; i < scenes[0].boxes.size(); ++i)
+    if (only < 0 || static_cast<int>(i) == only) boxes.push_back(i);
+  std::vector<nlohmann::json> manifests(boxes.size());
+  for (size_t n = 0; n < boxes.size(); ++n) {
+    nlohmann::json& m = manifests[n];
+    m["raywarp_sequence"] = 1;
+    m["scene"] = scene_file.filename().string();
+    m["box"] = boxes[n];
+    m["frame_count"] = frames;
+    m["parameters"] = nlohmann::json::array();
+    for (const AnimatedParam& p : params)
+      m["parameters"].push_back({{"field", p.path}, {"from", p.from}, {"to", p.to}});
+    m["frames"] = nlohmann::json::array();
+  }
+  std::vector<nlohmann::json> first_sidecars;
+  std::vector<BoxTextures> first_exported;
+  for (int f = 0; f < frames; ++f) {
+    char suffix[16];
+    std::snprintf(suffix, sizeof suffix, "_f%04d", f);
+    std::string values;
+    for (const AnimatedParam& p : params)
+      values += " " + p.path + " = " + shortest_text(p.at(f, frames));
+    log << "frame " << f + 1 << "/" << frames << ":" << values << "\n";
+    std::vector<BoxTextures> exported;
+    std::vector<nlohmann::json> sidecars = export_boxes(
+        scene_file, documents[f], scenes[f], options, out, session, log, only, suffix, exported);
+    for (size_t n = 0; n < sidecars.size(); ++n) {
+      nlohmann::json frame = {{"frame", f},
+                              {"sidecar", export_stem(scene_file, boxes[n]) + suffix + ".json"}};
+      nlohmann::json values_json = nlohmann::json::object();
+      for (const AnimatedParam& p : params) values_json[p.path] = p.at(f, frames);
+      frame["values"] = values_json;
+      frame["files"] = nlohmann::json::array();
+      for (const auto& file : sidecars[n]["files"]) frame["files"].push_back(file["file"]);
+      manifests[n]["frames"].push_back(std::move(frame));
+    }
+    if (f == 0) {
+      first_sidecars = std::move(sidecars);
+      first_exported = std::move(exported);
+    }
+  }
+  std::vector<std::string> stems;
+  for (size_t b : boxes) stems.push_back(export_stem(scene_file, b) + "_f0000");
+  write_bundles(scene_file, scenes[0], first_sidecars, first_exported, stems, boxes, out, log);
+  for (size_t n = 0; n < boxes.size(); ++n) {
+    const fs::path path = out / (export_stem(scene_file, boxes[n]) + "_sequence.json");
+    write_file_atomic(path.string(), manifests[n].dump(2) + "\n");
+    log << "box " << boxes[n] << ": wrote " << path.string() << " (" << frames
+        << " frames; the shaders and engine bundles load frame 0)\n";
+  }
+  return manifests;
+}
+
+std::string export_stem(const fs::path& scene, size_t index) {
+  return scene.stem().string() + "_box" + std::to_string(index);
 }
 
 }  // namespace raywarp

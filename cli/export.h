@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
+#include "cli/animate.h"
 #include "library/bake.h"
 #include "library/export.h"
 
@@ -23,6 +24,19 @@ std::vector<nlohmann::json> bake_and_export(const std::filesystem::path& scene,
                                             const ExportOptions& options,
                                             const std::filesystem::path& out, BakeSession& session,
                                             std::ostream& log, int only = -1);
+
+// A sequence of bakes exported frame by frame: `frames` frames while each parameter runs from
+// its FROM to its TO (cli/animate.h; --sequence gives a from_mesh sequence's frames). Each box's
+// textures and sidecar go to SCENESTEM_boxI_fNNNN.*, and SCENESTEM_boxI_sequence.json lists the
+// frames with the parameters' values; the shaders and engine bundles are written once, for
+// frame 0 (what each frame holds differs, not how it is read). Every frame's scene is validated
+// before anything is baked. Returns the sequences' manifests, one per box.
+std::vector<nlohmann::json> bake_and_export_sequence(const std::filesystem::path& scene,
+                                                     const std::vector<AnimatedParam>& params,
+                                                     int frames, const ExportOptions& options,
+                                                     const std::filesystem::path& out,
+                                                     BakeSession& session, std::ostream& log,
+                                                     int only = -1);
 
 // The file name stem of a scene's box: "bunny_twist_box0".
 std::string export_stem(const std::filesystem::path& scene, size_t index);

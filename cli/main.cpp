@@ -44,7 +44,8 @@ struct RenderOptions {
   std::string cache_dir;
   bool no_cache = false;
   bool gif_only = false;
-  std::string route;  // empty: the scene's render.route
+  std::string route;      // empty: the scene's render.route
+  bool sequence = false;  // every frame of the boxes' from_mesh sequences
 };
 
 // The bake cache a command uses: --cache-dir, else the default folder; none with --no-cache or
@@ -71,11 +72,35 @@ void ensure_parent(const std::string& path) {
   if (!parent.empty()) fs::create_directories(parent);
 }
 
+// The animated parameters of --param and --sequence, and the frame count (--frames, else the
+// longest sequence's).
+std::vector<AnimatedParam> animated_params(const std::string& scene_file,
+                                           const std::vector<std::string>& params, bool sequence,
+                                           int& frames) {
+  std::vector<AnimatedParam> out;
+  for (const auto& p : params) out.push_back(parse_animated_param(p));
+  if (sequence) {
+    int longest = 0;
+    for (AnimatedParam& p : sequence_params(load_scene(scene_file), &longest))
+      out.push_back(std::move(p));
+    if (frames == 0) frames = longest;
+    if (frames < 2)
+      throw Error("--sequence: " + scene_file +
+                  ": the sequence has a single frame; leave out --sequence to render it, or "
+                  "give --frames N");
+  }
+  if (!out.empty() && frames == 0)
+    throw Error("--param needs --frames N (N >= 2), the sequence's length");
+  if (out.empty() && frames > 0)
+    throw Error("--frames: give --sequence or a --param FIELD=FROM:TO to animate");
+  return out;
+}
+
 int run_animation(const RenderOptions& opt) {
   AnimationOptions a;
   a.scene = opt.scene;
-  for (const auto& p : opt.params) a.params.push_back(parse_animated_param(p));
   a.frames = opt.frames;
+  a.params = animated_params(opt.scene, opt.params, opt.sequence, a.frames);
   a.camera = opt.camera;
   a.width = opt.width;
   a.height = opt.height;
@@ -93,10 +118,7 @@ int run_animation(const RenderOptions& opt) {
 }
 
 int run_render(const RenderOptions& opt) {
-  if (opt.frames > 0 || !opt.params.empty()) {
-    if (opt.frames == 0) throw Error("--param needs --frames N (N >= 2), the sequence's length");
-    return run_animation(opt);
-  }
+  if (opt.frames > 0 || !opt.params.empty() || opt.sequence) return run_animation(opt);
   Scene scene = load_scene(opt.scene);
   if (!opt.route.empty()) {
     scene.render.route = opt.route;
@@ -286,6 +308,9 @@ struct BakeCli {
   int box = -1;
   int atlas_border = 0;
   bool float32 = false, dds_legacy = false, orientation = false, no_cache = false;
+  int frames = 0;  // > 0: a sequence of this many frames
+  std::vector<std::string> params;
+  bool sequence = false;
 };
 
 int run_bake(const BakeCli& opt) {
@@ -309,7 +334,14 @@ int run_bake(const BakeCli& opt) {
   if (opt.scene.empty()) throw Error("bake: give a scene file (or --orientation-test)");
   auto cache = open_cache(opt.cache_dir, opt.no_cache);
   BakeSession session(cache.get());
-  bake_and_export(opt.scene, options, opt.out, session, std::cerr, opt.box);
+  int frames = opt.frames;
+  const std::vector<AnimatedParam> params =
+      animated_params(opt.scene, opt.params, opt.sequence, frames);
+  if (params.empty())
+    bake_and_export(opt.scene, options, opt.out, session, std::cerr, opt.box);
+  else
+    bake_and_export_sequence(opt.scene, params, frames, options, opt.out, session, std::cerr,
+                             opt.box);
   report_cache(cache.get());
   return 0;
 }
@@ -366,6 +398,10 @@ int main(int argc, char** argv) {
                      "boxes[0].deformer.angle_deg=0:360 (repeatable). A single twist's angle "
                      "is animated by the texture map M with one bake; other fields re-bake "
                      "every frame");
+  render->add_flag("--sequence", ropt.sequence,
+                   "Render every frame of the boxes' from_mesh sequences (a folder of deformed "
+                   "copies, or a glTF's morph targets; docs/from_mesh.md): one frame per copy, "
+                   "or --frames N blending between copies");
   render->add_flag("--gif-only", ropt.gif_only, "With --frames: write the GIF only, no PNG frames");
   render->add_option("--delay", ropt.delay_cs, "GIF frame delay in 1/100 s")
       ->check(CLI::Range(1, 1000))
@@ -412,10 +448,21 @@ int main(int argc, char** argv) {
   bake->add_flag("--orientation-test", bopt.orientation,
                  "Write the orientation test volume (R = u, G = v, B = w, a marked corner) "
                  "instead of a scene's textures");
+  bake->add_flag("--sequence", bopt.sequence,
+                 "Export every frame of the boxes' from_mesh sequences (as render --sequence): "
+                 "SCENE_boxI_fNNNN.* per frame and SCENE_boxI_sequence.json listing them");
+  bake->add_option("--frames", bopt.frames,
+                   "Export a sequence of N frames while each --param runs from FROM to TO (or "
+                   "N frames over --sequence's copies)")
+      ->check(CLI::Range(2, 10000));
+  bake->add_option("--param", bopt.params,
+                   "FIELD=FROM:TO, a numeric field of the scene file to animate (as for render; "
+                   "repeatable)");
   bake->add_option("--cache-dir", bopt.cache_dir, "Bake cache folder (as for render)");
   bake->add_flag("--no-cache", bopt.no_cache, "Read and store no bake cache entry");
   bake->footer(
       "Example: raywarp bake examples/bunny_twist.json --out out/export --format ktx2,dds,vdb\n"
+      "         raywarp bake examples/bunny_sequence.json --out out/sequence --sequence\n"
       "         raywarp bake --orientation-test --out out/orientation --format all");
 
   LibraryOptions lopt;

@@ -82,11 +82,12 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
   }
   if (r.from_mesh) {
     const FromMeshReport& f = *r.from_mesh;
-    log << tag << "target: " << f.pairs << " of the mesh's " << f.mesh_vertices
-        << " vertices in the box (" << f.file_vertices << " in the file), largest move "
-        << fmt("%.4g", f.largest_move) << "; fit |F(source) - target| max "
-        << fmt("%.3g", f.fit_max_error) << ", rms " << fmt("%.3g", f.fit_rms_error) << " units ("
-        << fmt("%.2f", f.seconds) << " s)\n";
+    log << tag << "target";
+    if (f.frames > 0) log << " frame " << fmt("%.4g", f.frame) << " of 0-" << f.frames - 1;
+    log << ": " << f.pairs << " of the mesh's " << f.mesh_vertices << " vertices in the box ("
+        << f.file_vertices << " in the file), largest move " << fmt("%.4g", f.largest_move)
+        << "; fit |F(source) - target| max " << fmt("%.3g", f.fit_max_error) << ", rms "
+        << fmt("%.3g", f.fit_rms_error) << " units (" << fmt("%.2f", f.seconds) << " s)\n";
   }
   const StageReport* def = r.stage(Stage::Deformation);
   if (from_cache(def)) log << tag << "deformation texture and its figures from the cache\n";

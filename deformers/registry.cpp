@@ -504,9 +504,11 @@ std::vector<DeformerType> make_registry() {
     target.required = true;
     target.meaning =
         "the deformed copy: a mesh file with the scene mesh's vertices in the same order "
-        "(PLY, OBJ, STL, OFF, glTF, ...), or a glTF whose morph target `morph` is read";
+        "(PLY, OBJ, STL, OFF, glTF, ...), a glTF whose morph target `morph` is read, or a folder "
+        "of such copies, a sequence (`frame`)";
     target.hint = "give the deformed copy of the mesh, relative to the scene file";
     target.field = &DeformerSpec::target;
+    target.folder_ok = true;
     ParamDecl pins;
     pins.key = "pins";
     pins.kind = ParamKind::Faces;
@@ -521,6 +523,11 @@ std::vector<DeformerType> make_registry() {
                              "the morph target's weight: base + weight (target - base)", "", "1"),
                 number_param("resolution", &DeformerSpec::fit_resolution, closed(4, 256), "cells",
                              "the fit's lattice cells along the box's longest side", "", "48"),
+                number_param("frame", &DeformerSpec::frame, closed(0, 1e6), "",
+                             "the frame of a sequence: the copy of a folder `target` (its mesh "
+                             "files in name order), or morph target `frame` of a glTF at weight "
+                             "1; a fraction blends the two copies on either side",
+                             "", "none (a folder: 0)"),
                 pins};
     t.check = [](const JsonReader& r, const json& j, const std::string& field,
                  const DeformerSpec& d) {
@@ -528,6 +535,14 @@ std::vector<DeformerType> make_registry() {
         r.fail(child(field, "morph"), j["morph"], "must be an integer >= 0");
       if (j.contains("weight") && !j.contains("morph"))
         r.fail(child(field, "weight"), j["weight"], "applies to a morph target: give \"morph\"");
+      if (j.contains("frame") && j.contains("morph"))
+        r.fail(child(field, "frame"), j["frame"],
+               "picks a morph target itself (frame k is morph target k): give one of \"frame\" "
+               "and \"morph\"");
+      std::error_code ec;
+      if (j.contains("morph") && std::filesystem::is_directory(d.target, ec))
+        r.fail(child(field, "morph"), j["morph"],
+               "applies to a glTF target; the target is a folder of copies: give \"frame\"");
       if (j.contains("resolution") && d.fit_resolution != std::floor(d.fit_resolution))
         r.fail(child(field, "resolution"), j["resolution"], "must be an integer in [4, 256]");
     };
@@ -648,7 +663,8 @@ void read_params(const JsonReader& r, const json& j, const std::string& field,
         break;
       case ParamKind::File:
         d.*std::get<std::string DeformerSpec::*>(p.field) =
-            r.existing_file(v, at, std::filesystem::path(r.file()).parent_path()).string();
+            r.existing_file(v, at, std::filesystem::path(r.file()).parent_path(), p.folder_ok)
+                .string();
         break;
     }
   }
@@ -768,11 +784,11 @@ void describe_params(const std::vector<ParamDecl>& params, const DeformerSpec& d
         value = "{" + inner + "}";
         break;
       }
-      case ParamKind::File:
-        value = std::filesystem::path(d.*std::get<std::string DeformerSpec::*>(p.field))
-                    .filename()
-                    .string();
+      case ParamKind::File: {
+        const std::filesystem::path path(d.*std::get<std::string DeformerSpec::*>(p.field));
+        value = (path.has_filename() ? path : path.parent_path()).filename().string();
         break;
+      }
     }
     out += (out.empty() ? "" : ", ") + p.key + " " + value;
   }
@@ -810,7 +826,7 @@ std::string range_text(const ParamDecl& p) {
     case ParamKind::Group:
       return "object";
     case ParamKind::File:
-      return "a mesh file";
+      return p.folder_ok ? "a mesh file or a folder of them" : "a mesh file";
   }
   return "";
 }

@@ -77,8 +77,10 @@ struct DeformerSpec {
   std::vector<Drag> drags;                                 // box frame
   // from_mesh: the deformed copy of the mesh (resolved against the scene file's folder), the
   // morph target read from it (-1: the file's own vertices) and its weight, the fit's lattice.
+  // `target` may be a folder of copies, a sequence; `frame` (< 0: none) picks a copy of it, or
+  // morph target `frame` of a glTF (library/mesh_pairs.h).
   std::string target;
-  double morph = -1, weight = 1, fit_resolution = 48;
+  double morph = -1, weight = 1, fit_resolution = 48, frame = -1;
 };
 
 // How a parameter is written in JSON and where it is stored.
@@ -93,7 +95,8 @@ enum class ParamKind {
   Direction,  // [x, y, z], object axes, turned into the box frame -> Vector3d field
   Drags,      // [{"sub_min": .., "sub_max": .., "path": [{"t": s, "offset": [x, y, z]}]}] -> drags
   Group,      // a JSON object of `children`, optional as a whole
-  File,       // a path relative to the scene file, which must exist -> string field (resolved)
+  File,       // a path relative to the scene file, which must exist (a folder too where
+              // `folder_ok`)                                  -> string field (resolved)
 };
 
 struct ParamDecl {
@@ -111,6 +114,7 @@ struct ParamDecl {
   std::vector<ParamDecl> children;   // Group
   std::string group_hint;            // Group: an example object for messages
   std::vector<std::string> choices;  // Choice
+  bool folder_ok = false;            // File: a folder is accepted too
 };
 
 struct DeformerType {

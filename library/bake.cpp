@@ -646,14 +646,24 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     const DeformerSpec& d = spec.deformer;
     const int morph = d.morph < 0 ? -1 : static_cast<int>(d.morph);
     const auto started = std::chrono::steady_clock::now();
+    const DeformedCopy copy = [&] {
+      try {
+        return read_deformed_copy(d.target, morph, d.weight, d.frame);
+      } catch (const Error& e) {
+        const std::string what = e.what();
+        const bool names_field = what.rfind("frame", 0) == 0 || what.rfind("morph", 0) == 0;
+        throw Error(job.where + ".deformer." + (names_field ? "" : "target: ") + what);
+      }
+    }();
     const MeshPairs pairs = [&] {
       try {
-        return mesh_pairs(job.mesh->file.string(), mesh, d.target, morph, d.weight, spec.box);
+        return mesh_pairs(job.mesh->file.string(), mesh, copy.vertices, copy.name, spec.box);
       } catch (const Error& e) {
         throw Error(job.where + ".deformer.target: " + e.what());
       }
     }();
-    simulation_key = "\nfrom mesh" + job.mesh->hash + " target" + target_hash(d.target);
+    simulation_key = "\nfrom mesh" + job.mesh->hash + " target";
+    for (const std::string& file : copy.files) simulation_key += " " + target_hash(file);
     const double cell = 2.0 * spec.box.half_extents.maxCoeff() / d.fit_resolution;
     const double bound = 2.0 * std::sqrt(3.0) * cell;
     const TriangleBvh bvh(mesh);
@@ -673,6 +683,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     report.deformer = out.deformer->describe();
     FromMeshReport fm;
     fm.pairs = static_cast<long>(pairs.sources.size());
+    fm.frames = copy.frames;
+    fm.frame = std::max(d.frame, 0.0);
     fm.file_vertices = pairs.file_vertices;
     fm.mesh_vertices = pairs.mesh_vertices;
     fm.torn = pairs.torn;

@@ -80,11 +80,13 @@ struct FromMeshReport {
   long pairs = 0;          // mesh vertices in the box, fitted
   long file_vertices = 0;  // the mesh file's vertices, before identical ones were joined
   long mesh_vertices = 0;
-  long torn = 0;            // joined vertices the target pulls apart
-  double largest_move = 0;  // object units
-  long moved_outside = 0;   // vertices outside the box the target moves
+  long torn = 0;                                // joined vertices the target pulls apart
+  double largest_move = 0;                      // object units
+  long moved_outside = 0;                       // vertices outside the box the target moves
   double fit_max_error = 0, fit_rms_error = 0;  // |F(source) - target| over the pairs
   double seconds = 0;                           // reading the target and fitting
+  int frames = 0;    // of a sequence target (library/mesh_pairs.h); 0: not a sequence
+  double frame = 0;  // the frame read, when `frames` > 0
 };
 
 // Something a user should know about a bake. `code` is stable (front ends may key on it); the

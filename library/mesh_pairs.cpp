@@ -1,15 +1,166 @@
 #include "library/mesh_pairs.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <iterator>
 
 #include "base/error.h"
+#include "deformers/deformer.h"
 
 namespace raywarp {
 
-MeshPairs mesh_pairs(const std::string& mesh_file, const Mesh& mesh, const std::string& target_file,
-                     int morph, double weight, const Box& box) {
+namespace {
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool is_mesh_name(const std::filesystem::path& name) {
+  std::string ext = lower(name.extension().string());
+  if (ext == ".xz") ext = lower(name.stem().extension().string());
+  static const char* const kFormats[] = {".ply",  ".obj", ".stl", ".off",
+                                         ".gltf", ".glb", ".fbx", ".dae"};
+  return std::any_of(std::begin(kFormats), std::end(kFormats),
+                     [&](const char* f) { return ext == f; });
+}
+
+// Natural order: runs of digits compare by value (then by length: "01" after "1"), the rest by
+// byte.
+bool natural_less(const std::string& a, const std::string& b) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    if (da && db) {
+      size_t ei = i, ej = j;
+      while (ei < a.size() && std::isdigit(static_cast<unsigned char>(a[ei]))) ++ei;
+      while (ej < b.size() && std::isdigit(static_cast<unsigned char>(b[ej]))) ++ej;
+      size_t zi = i, zj = j;  // leading zeros
+      while (zi + 1 < ei && a[zi] == '0') ++zi;
+      while (zj + 1 < ej && b[zj] == '0') ++zj;
+      if (ei - zi != ej - zj) return ei - zi < ej - zj;
+      const int c = a.compare(zi, ei - zi, b, zj, ej - zj);
+      if (c != 0) return c < 0;
+      if (ei - i != ej - j) return ei - i < ej - j;
+      i = ei;
+      j = ej;
+    } else {
+      if (a[i] != b[j]) return static_cast<unsigned char>(a[i]) < static_cast<unsigned char>(b[j]);
+      ++i;
+      ++j;
+    }
+  }
+  return a.size() - i < b.size() - j;
+}
+
+bool is_gltf(const std::string& file) {
+  std::string ext = lower(std::filesystem::path(file).extension().string());
+  return ext == ".gltf" || ext == ".glb";
+}
+
+}  // namespace
+
+std::vector<std::string> sequence_files(const std::string& folder) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  std::filesystem::directory_iterator it(folder, ec), end;
+  if (ec) throw Error(folder + ": cannot list the folder: " + ec.message());
+  for (; it != end; it.increment(ec)) {
+    if (ec) throw Error(folder + ": cannot list the folder: " + ec.message());
+    const std::filesystem::path name = it->path().filename();
+    if (name.string().empty() || name.string()[0] == '.' || !is_mesh_name(name)) continue;
+    std::error_code fe;
+    if (!it->is_regular_file(fe)) continue;
+    names.push_back(name.string());
+    if (names.size() > static_cast<size_t>(kMaxSequenceFrames))
+      throw Error(folder + ": more than " + std::to_string(kMaxSequenceFrames) +
+                  " mesh files: a sequence has at most that many frames");
+  }
+  if (names.empty())
+    throw Error(folder +
+                ": no mesh file (PLY, OBJ, STL, OFF, glTF, GLB, FBX, DAE) in the folder: a "
+                "sequence folder holds the deformed copies, one file per frame");
+  std::sort(names.begin(), names.end(), natural_less);
+  std::vector<std::string> out;
+  out.reserve(names.size());
+  for (const std::string& n : names) out.push_back((std::filesystem::path(folder) / n).string());
+  return out;
+}
+
+int sequence_frames(const std::string& target) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(target, ec))
+    return static_cast<int>(sequence_files(target).size());
+  if (!is_gltf(target)) return 0;
+  return load_file_vertices(target).morph_targets;
+}
+
+DeformedCopy read_deformed_copy(const std::string& target, int morph, double weight, double frame) {
+  DeformedCopy out;
+  std::error_code ec;
+  const bool folder = std::filesystem::is_directory(target, ec);
+  if (!folder && frame < 0.0) {
+    out.vertices = load_file_vertices(target, morph, weight);
+    out.files = {target};
+    out.name = target;
+    return out;
+  }
+  if (morph >= 0)
+    throw Error("morph = " + std::to_string(morph) +
+                ": a sequence's frame picks the copy; give one of frame and morph");
+  if (!std::isfinite(frame)) throw Error("frame: must be a finite number");
+  const double f = std::max(frame, 0.0);
+  std::vector<std::string> files;
+  if (folder) {
+    files = sequence_files(target);
+    out.frames = static_cast<int>(files.size());
+  } else {
+    FileVertices base = load_file_vertices(target);
+    out.frames = base.morph_targets;
+    if (out.frames == 0)
+      throw Error("frame = " + shortest_text(frame) + ": " + target +
+                  " has no morph target; a sequence is a folder of copies or a glTF with morph "
+                  "targets");
+  }
+  const auto describe_range = [&] {
+    return folder ? std::to_string(out.frames) + " copies in " + target
+                  : std::to_string(out.frames) + " morph targets in " + target;
+  };
+  if (f > out.frames - 1)
+    throw Error("frame = " + shortest_text(frame) + ": past the sequence's last frame, " +
+                std::to_string(out.frames - 1) + " (" + describe_range() + ")");
+  const int a = static_cast<int>(std::floor(f));
+  const int b = std::min(a + 1, out.frames - 1);
+  const double t = f - a;
+  auto read = [&](int k) {
+    return folder ? load_file_vertices(files[static_cast<size_t>(k)])
+                  : load_file_vertices(target, k, 1.0);
+  };
+  out.vertices = read(a);
+  if (folder) out.files.push_back(files[static_cast<size_t>(a)]);
+  if (t > 0.0 && b != a) {
+    const FileVertices next = read(b);
+    const std::string& name_b = folder ? files[static_cast<size_t>(b)] : target;
+    if (next.positions.size() != out.vertices.positions.size())
+      throw Error("frame = " + shortest_text(frame) + ": " + name_b + " has " +
+                  std::to_string(next.positions.size()) + " vertices and the frame before it " +
+                  std::to_string(out.vertices.positions.size()) +
+                  ": every frame of a sequence keeps the mesh's vertices");
+    for (size_t i = 0; i < next.positions.size(); ++i)
+      out.vertices.positions[i] = (1.0 - t) * out.vertices.positions[i] + t * next.positions[i];
+    if (folder) out.files.push_back(name_b);
+  }
+  if (!folder) out.files = {target};
+  out.name = folder ? files[static_cast<size_t>(a)] : target;
+  return out;
+}
+
+MeshPairs mesh_pairs(const std::string& mesh_file, const Mesh& mesh, const FileVertices& moved,
+                     const std::string& target_file, const Box& box) {
   const FileVertices rest = load_file_vertices(mesh_file);
-  const FileVertices moved = load_file_vertices(target_file, morph, weight);
   if (rest.positions.size() != moved.positions.size())
     throw Error(target_file + ": " + std::to_string(moved.positions.size()) +
                 " vertices, the scene's mesh " + mesh_file + " has " +

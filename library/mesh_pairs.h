@@ -22,11 +22,41 @@ struct MeshPairs {
   long moved_outside = 0;   // vertices outside the box that the target moves: drawn at rest
 };
 
-// `mesh` is load_mesh(mesh_file); the target is `target_file`'s vertices (morph >= 0: its morph
-// target `morph` blended by `weight`; load_file_vertices). A vertex is in the box within 1e-9 of
-// its diagonal; "moves" means by more than 1e-9 of the box diagonal. Throws Error naming both
-// files when their vertex counts differ.
-MeshPairs mesh_pairs(const std::string& mesh_file, const Mesh& mesh, const std::string& target_file,
-                     int morph, double weight, const Box& box);
+// A from_mesh target as read: the deformed copy's vertices in the file's order (FileVertices),
+// from one file or blended from two frames of a sequence.
+//
+// A sequence is either a folder of copies, its frames the folder's mesh files (PLY, OBJ, STL,
+// OFF, glTF, GLB, FBX, DAE, each possibly .xz) in natural name order (target_2.ply before
+// target_10.ply; hidden files skipped), or a glTF's morph targets, frame k being morph target k
+// at weight 1. A fractional frame f blends frames floor(f) and floor(f) + 1 vertex by vertex:
+// (1 - t) a + t b, t = f - floor(f).
+struct DeformedCopy {
+  FileVertices vertices;
+  std::vector<std::string> files;  // the files read (their bytes key what is baked from them)
+  int frames = 0;                  // the sequence's length; 0: not a sequence
+  std::string name;                // for messages: the file (of a folder: frame floor(F)'s)
+};
+
+constexpr int kMaxSequenceFrames = 100000;
+
+// The mesh files of a sequence folder, in natural name order. Throws Error naming the folder when
+// it holds none, or more than kMaxSequenceFrames.
+std::vector<std::string> sequence_files(const std::string& folder);
+
+// The frames of `target` as a sequence: the folder's mesh files, or a glTF's morph targets (the
+// file is read); 0 for a file with no morph target.
+int sequence_frames(const std::string& target);
+
+// `target`: a mesh file (morph >= 0: its morph target `morph` blended by `weight`) or, with
+// frame >= 0 (a folder: always; frame < 0 reads frame 0), frame `frame` of a sequence. Throws
+// Error: "frame = F: ..." when F is past the sequence's last frame, naming the count; "morph
+// ..." or the file's message otherwise.
+DeformedCopy read_deformed_copy(const std::string& target, int morph, double weight, double frame);
+
+// `mesh` is load_mesh(mesh_file); `moved` the target's vertices, `target_name` for messages. A
+// vertex is in the box within 1e-9 of its diagonal; "moves" means by more than 1e-9 of the box
+// diagonal. Throws Error naming both files when their vertex counts differ.
+MeshPairs mesh_pairs(const std::string& mesh_file, const Mesh& mesh, const FileVertices& moved,
+                     const std::string& target_name, const Box& box);
 
 }  // namespace raywarp

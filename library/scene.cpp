@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -13,6 +14,8 @@
 
 #include "base/error.h"
 #include "base/json_reader.h"
+#include "deformers/deformer.h"
+#include "library/mesh_pairs.h"
 
 namespace raywarp {
 
@@ -543,6 +546,25 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
                     "tracing needs a distance grid (implicit.type \"sdf\"): use linear, threshold "
                     "or jacobian");
     }
+  // A from_mesh folder target, a sequence: its frames listed now, so that a frame past the last
+  // or an empty folder is said before anything is baked (a glTF's morph targets are counted when
+  // it is read).
+  for (size_t i = 0; i < scene.boxes.size(); ++i) {
+    const DeformerSpec& d = scene.boxes[i].deformer;
+    std::error_code ec;
+    if (d.type != "from_mesh" || !std::filesystem::is_directory(d.target, ec)) continue;
+    const std::string at = path.string() + ": boxes[" + std::to_string(i) + "].deformer.";
+    std::vector<std::string> files;
+    try {
+      files = sequence_files(d.target);
+    } catch (const Error& e) {
+      throw Error(at + "target: " + e.what());
+    }
+    if (d.frame > static_cast<double>(files.size()) - 1.0)
+      throw Error(at + "frame = " + shortest_text(d.frame) + ": past the sequence's last frame, " +
+                  std::to_string(files.size() - 1) + " (" + std::to_string(files.size()) +
+                  " copies in " + d.target + ")");
+  }
   if (scene.render.route == "tets")
     for (size_t i = 0; i < scene.boxes.size(); ++i)
       if (scene.boxes[i].deformer.type != "simulation")

@@ -15,7 +15,10 @@ build/raywarp render examples/bunny_simulation.json --route tets -o out/bunny_si
 echo "== animation: the head's twist from 0 to 360 degrees, one bake for 60 frames"
 build/raywarp render examples/bunny_head_twist.json -o out/anim/bunny_head_twist.png --frames 60 \
   --param 'boxes[0].deformer.angle_deg=0:360' --width 256 --height 256
+echo "== sequence: the bunny's head nodding, nine deformed copies (examples/sequence/) and in-betweens"
+build/raywarp render examples/bunny_sequence.json -o out/anim/bunny_nod.png --sequence --frames 17 \
+  --width 256 --height 256
 echo "== library: the deformations of examples/library on the probe mesh, exported with a contact sheet"
 build/raywarp library examples/library --out out/library
-echo "rendered $(ls examples/*.json | wc -l) scenes and one animation (out/anim/) into out/, and a library"
+echo "rendered $(ls examples/*.json | wc -l) scenes and two animations (out/anim/) into out/, and a library"
 echo "of $(ls examples/library/*.json | wc -l) textures into out/library/ (contact_sheet.png, viewer/index.html)"

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "library/image.h"
@@ -153,6 +154,43 @@ TEST_F(CliTest, TetRouteRendersASimulationBox) {
     EXPECT_GT(differs, 10) << tets;  // something shows besides the white background
     EXPECT_EQ(fs::file_size(dir / "t.f32"), 32u * 32u * 4u);
   }
+}
+
+// A from_mesh sequence: a folder of the octahedron's copies, its top vertex raised further in
+// each. --sequence renders one frame per copy (and a GIF), bake --sequence exports each frame and
+// a manifest; a scene without a sequence, and a frame past the last, are refused.
+TEST_F(CliTest, SequenceRendersAndExportsEveryCopy) {
+  fs::create_directories(dir / "seq");
+  for (int k = 0; k < 3; ++k)
+    std::ofstream(dir / "seq" / ("copy_" + std::to_string(k) + ".obj"))
+        << "v 1 0 0\nv -1 0 0\nv 0 " << 1.0 + 0.25 * k
+        << " 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n"
+           "f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+  const std::string box = R"("min": [-1.2, -1.2, -1.2], "max": [1.2, 1.7, 1.2])";
+  std::ofstream(dir / "s.json") << scene(
+      box, R"({"type": "from_mesh", "target": "seq", "resolution": 8})");
+  Result r = run((dir / "s.json").string() + " -o " + (dir / "anim" / "a.png").string() +
+                 " --sequence --gif-only");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("frame 3/3: boxes[0].deformer.frame = 2"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "anim" / "a.gif"));
+
+  r = ::run("bake " + (dir / "s.json").string() + " --out " + (dir / "x").string() +
+            " --sequence --format ktx2 --no-cache");
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(dir / "x" / "s_box0_sequence.json");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"frame_count\": 3"), std::string::npos) << text.str();
+  for (int k = 0; k < 3; ++k) {
+    const std::string stem = "s_box0_f000" + std::to_string(k);
+    EXPECT_TRUE(fs::exists(dir / "x" / (stem + ".deformation.ktx2"))) << stem;
+    EXPECT_TRUE(fs::exists(dir / "x" / (stem + ".json"))) << stem;
+  }
+
+  expect_failure(scene(), "--sequence", {"s.json", "--sequence", "no box's from_mesh target"});
+  expect_failure(scene(box, R"({"type": "from_mesh", "target": "seq", "frame": 5})"), "",
+                 {"s.json", "boxes[0].deformer.frame = 5", "last frame, 2", "3 copies"});
 }
 
 TEST_F(CliTest, MissingSceneFile) {

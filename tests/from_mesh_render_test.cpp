@@ -12,6 +12,8 @@
 //   GltfMorphTargets           a glTF written here with two morph targets (the twist of the
 //                              head and the bend of the whole bunny, as displacements); each
 //                              target rendered against the target mesh itself, rasterised.
+//   SequenceFrame              a folder of copies (a sequence), a fractional frame against the
+//                              two copies it blends, rasterised.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -25,26 +27,18 @@
 #include "library/mesh_file.h"
 #include "library/mesh_pairs.h"
 #include "tests/ground_truth_render.h"
+#include "tests/mesh_files.h"
 
 using namespace raywarp;
 namespace fs = std::filesystem;
 using nlohmann::json;
+using raywarp::testing::Folder;
+using raywarp::testing::write_gltf;
+using raywarp::testing::write_ply;
 
 namespace {
 
 constexpr int kSize = 256;
-
-// A fresh folder under the system's temporary folder, removed afterwards.
-struct Folder {
-  fs::path dir;
-  Folder() {
-    dir =
-        fs::temp_directory_path() / ("raywarp_from_mesh_" + std::to_string(std::random_device()()));
-    fs::create_directories(dir);
-  }
-  ~Folder() { fs::remove_all(dir); }
-  fs::path path() const { return dir; }
-};
 
 // The scene file's soup (the file's own vertex order) with the vertices inside `box` moved by
 // the box's deformer F (box frame).
@@ -58,21 +52,6 @@ PolygonSoup moved_soup(const std::string& mesh_file, const Box& box, const Defor
     v = {q.x(), q.y(), q.z()};
   }
   return soup;
-}
-
-void write_ply(const std::string& path, const PolygonSoup& soup) {
-  std::ofstream out(path);
-  out.precision(17);
-  out << "ply\nformat ascii 1.0\nelement vertex " << soup.vertices.size()
-      << "\nproperty double x\nproperty double y\nproperty double z\nelement face "
-      << soup.sizes.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (const auto& v : soup.vertices) out << v[0] << " " << v[1] << " " << v[2] << "\n";
-  size_t next = 0;
-  for (int size : soup.sizes) {
-    out << size;
-    for (int c = 0; c < size; ++c) out << " " << soup.corners[next++];
-    out << "\n";
-  }
 }
 
 // The faces F holds at the identity, as a scene's "pins" list.
@@ -168,89 +147,6 @@ INSTANTIATE_TEST_SUITE_P(FromMesh, CopiesOfExactDeformations,
                            return s;
                          });
 
-std::string base64(const std::string& bytes) {
-  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  size_t i = 0;
-  for (; i + 2 < bytes.size(); i += 3) {
-    const unsigned n = (unsigned char)bytes[i] << 16 | (unsigned char)bytes[i + 1] << 8 |
-                       (unsigned char)bytes[i + 2];
-    for (int s = 18; s >= 0; s -= 6) out += k[(n >> s) & 63];
-  }
-  if (i < bytes.size()) {
-    unsigned n = (unsigned char)bytes[i] << 16;
-    if (i + 1 < bytes.size()) n |= (unsigned char)bytes[i + 1] << 8;
-    out += k[(n >> 18) & 63];
-    out += k[(n >> 12) & 63];
-    out += i + 1 < bytes.size() ? k[(n >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// A glTF 2.0 file (buffer embedded as a data URI) of one mesh, the bunny's triangles, with one
-// morph target per `moved` soup (positions given absolute, stored as displacements).
-void write_gltf(const std::string& path, const PolygonSoup& base,
-                const std::vector<PolygonSoup>& moved) {
-  std::string bin;
-  auto put_float = [&](float f) { bin.append(reinterpret_cast<const char*>(&f), 4); };
-  const size_t n = base.vertices.size();
-  json accessors = json::array(), views = json::array();
-  auto add_vec3 = [&](const std::vector<std::array<double, 3>>& v, bool displacement_of_base) {
-    const size_t offset = bin.size();
-    std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-    for (size_t i = 0; i < n; ++i)
-      for (int a = 0; a < 3; ++a) {
-        const float f =
-            static_cast<float>(displacement_of_base ? v[i][a] - base.vertices[i][a] : v[i][a]);
-        put_float(f);
-        lo[a] = std::min(lo[a], double(f));
-        hi[a] = std::max(hi[a], double(f));
-      }
-    views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", 12 * n}});
-    accessors.push_back({{"bufferView", views.size() - 1},
-                         {"componentType", 5126},
-                         {"count", n},
-                         {"type", "VEC3"},
-                         {"min", lo},
-                         {"max", hi}});
-    return accessors.size() - 1;
-  };
-  const size_t position = add_vec3(base.vertices, false);
-  json targets = json::array();
-  for (const PolygonSoup& m : moved) targets.push_back({{"POSITION", add_vec3(m.vertices, true)}});
-  const size_t index_offset = bin.size();
-  size_t indices = 0;
-  for (size_t next = 0, f = 0; f < base.sizes.size(); next += base.sizes[f], ++f)
-    for (int c = 1; c + 1 < base.sizes[f]; ++c)
-      for (int k : {0, c, c + 1}) {
-        const std::uint32_t idx = static_cast<std::uint32_t>(base.corners[next + k]);
-        bin.append(reinterpret_cast<const char*>(&idx), 4);
-        ++indices;
-      }
-  views.push_back({{"buffer", 0}, {"byteOffset", index_offset}, {"byteLength", 4 * indices}});
-  accessors.push_back({{"bufferView", views.size() - 1},
-                       {"componentType", 5125},
-                       {"count", indices},
-                       {"type", "SCALAR"}});
-  json doc = {{"asset", {{"version", "2.0"}}},
-              {"scene", 0},
-              {"scenes", {{{"nodes", {0}}}}},
-              {"nodes", {{{"mesh", 0}}}},
-              {"meshes",
-               {{{"primitives",
-                  {{{"attributes", {{"POSITION", position}}},
-                    {"indices", accessors.size() - 1},
-                    {"targets", targets}}}},
-                 {"weights", std::vector<double>(moved.size(), 0.0)}}}},
-              {"buffers",
-               {{{"byteLength", bin.size()},
-                 {"uri", "data:application/octet-stream;base64," + base64(bin)}}}},
-              {"bufferViews", views},
-              {"accessors", accessors}};
-  std::ofstream(path) << doc.dump();
-}
-
 TEST(FromMesh, GltfMorphTargetsRenderWithinTheThresholdsOfTheTargets) {
   const std::string root = RAYWARP_SOURCE_DIR;
   // Morph 0: the head twisted by 90 degrees in its box; morph 1: the whole bunny bent in
@@ -294,6 +190,52 @@ TEST(FromMesh, GltfMorphTargetsRenderWithinTheThresholdsOfTheTargets) {
     expect_thresholds(std::string("gltf_morph_") + std::to_string(morph),
                       compare_images(image, truth, 0.01 * diagonal), image, truth);
   }
+}
+
+// A sequence: a folder of copies, the bunny's head twisted by 0, 45 and 90 degrees, named so that
+// only natural order puts them right (copy_1, copy_2, copy_10). Frame 1.5 blends the 45- and
+// 90-degree copies half and half; the reference is that blended mesh, rasterised.
+TEST(FromMesh, SequenceFrameRendersWithinTheThresholdsOfTheBlendedCopies) {
+  const std::string root = RAYWARP_SOURCE_DIR;
+  const fs::path scene_file = root + "/examples/bunny_head_twist.json";
+  Scene exact = load_scene(scene_file);
+  const Camera camera = *exact.camera;
+  const std::string mesh_file = exact.mesh.string();
+  const Folder folder;
+  const fs::path sequence = folder.path() / "twist";
+  fs::create_directories(sequence);
+  const char* names[3] = {"copy_1.ply", "copy_2.ply", "copy_10.ply"};
+  std::vector<PolygonSoup> copies;
+  std::shared_ptr<const Deformer> F;
+  for (int k = 0; k < 3; ++k) {
+    exact.boxes[0].deformer.angle_deg = 45.0 * k;
+    F = make_box_deformer(exact.boxes[0], "boxes[0]");
+    copies.push_back(moved_soup(mesh_file, exact.boxes[0].box, *F));
+    write_ply((sequence / names[k]).string(), copies.back());
+  }
+  PolygonSoup blended = copies[1];
+  for (size_t i = 0; i < blended.vertices.size(); ++i)
+    for (int a = 0; a < 3; ++a)
+      blended.vertices[i][a] = 0.5 * copies[1].vertices[i][a] + 0.5 * copies[2].vertices[i][a];
+  json doc = read_scene_document(scene_file);
+  doc["boxes"][0]["deformer"] = {{"type", "from_mesh"},
+                                 {"target", sequence.string()},
+                                 {"frame", 1.5},
+                                 {"pins", held_faces(*F)}};
+  const Scene scene = load_scene_json(doc, scene_file);
+  PreparedScene prepared;
+  const Image image = render(scene, camera, prepared);
+  const BakeReport& r = prepared.boxes[0].report;
+  ASSERT_TRUE(r.from_mesh);
+  EXPECT_EQ(r.from_mesh->frames, 3);
+  EXPECT_EQ(r.from_mesh->frame, 1.5);
+  const std::string target_ply = (folder.path() / "blended.ply").string();
+  write_ply(target_ply, blended);
+  const Mesh target = load_mesh(target_ply);
+  const Image truth = rasterize(target, camera, kSize, kSize, scene.render);
+  expect_thresholds("sequence_frame_1_5",
+                    compare_images(image, truth, 0.01 * mesh_bounds(target).diagonal().norm()),
+                    image, truth);
 }
 
 // Bad targets are refused naming the field and both counts.

@@ -1,0 +1,156 @@
+// A from_mesh sequence (library/mesh_pairs.h): a folder of deformed copies in natural name order,
+// or a glTF's morph targets; a fractional frame blends the copies on either side; frames past the
+// last, empty folders and conflicting fields are refused naming the field and what is allowed.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "base/error.h"
+#include "library/mesh_pairs.h"
+#include "library/scene.h"
+#include "tests/mesh_files.h"
+#include "tests/temp_folder.h"
+
+using namespace raywarp;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// A tetrahedron, its vertices shifted by `shift` along x.
+PolygonSoup tetrahedron(double shift) {
+  PolygonSoup soup;
+  soup.vertices = {{shift, 0, 0}, {1 + shift, 0, 0}, {shift, 1, 0}, {shift, 0, 1}};
+  soup.sizes = {3, 3, 3, 3};
+  soup.corners = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  return soup;
+}
+
+std::string message_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+class MeshSequence : public TempFolderTest {
+ protected:
+  // copy_1.ply, copy_2.ply, copy_10.ply shifted by 0, 1 and 2; a hidden copy and a text file
+  // that are not frames.
+  std::string write_copies() {
+    const fs::path dir = dir_ / "copies";
+    fs::create_directories(dir);
+    raywarp::testing::write_ply((dir / "copy_10.ply").string(), tetrahedron(2));
+    raywarp::testing::write_ply((dir / "copy_2.ply").string(), tetrahedron(1));
+    raywarp::testing::write_ply((dir / "copy_1.ply").string(), tetrahedron(0));
+    raywarp::testing::write_ply((dir / ".copy_0.ply").string(), tetrahedron(7));
+    std::ofstream(dir / "notes.txt") << "not a frame\n";
+    return dir.string();
+  }
+};
+
+TEST_F(MeshSequence, FolderFramesAreItsMeshFilesInNaturalOrder) {
+  const std::string dir = write_copies();
+  const std::vector<std::string> files = sequence_files(dir);
+  ASSERT_EQ(files.size(), 3u);
+  EXPECT_EQ(fs::path(files[0]).filename(), "copy_1.ply");
+  EXPECT_EQ(fs::path(files[1]).filename(), "copy_2.ply");
+  EXPECT_EQ(fs::path(files[2]).filename(), "copy_10.ply");
+  EXPECT_EQ(sequence_frames(dir), 3);
+}
+
+TEST_F(MeshSequence, FractionalFrameBlendsTheCopiesOnEitherSide) {
+  const std::string dir = write_copies();
+  for (double frame : {0.0, 1.0, 2.0, 0.25, 1.75}) {
+    const DeformedCopy copy = read_deformed_copy(dir, -1, 1.0, frame);
+    EXPECT_EQ(copy.frames, 3);
+    ASSERT_EQ(copy.vertices.positions.size(), 4u);
+    // Copy k is shifted by k: the blend by the frame itself.
+    EXPECT_DOUBLE_EQ(copy.vertices.positions[0].x(), frame) << frame;
+    EXPECT_DOUBLE_EQ(copy.vertices.positions[1].x(), 1.0 + frame) << frame;
+    EXPECT_EQ(copy.files.size(), frame == std::floor(frame) ? 1u : 2u) << frame;
+  }
+  // No frame given: a folder's first copy.
+  EXPECT_DOUBLE_EQ(read_deformed_copy(dir, -1, 1.0, -1).vertices.positions[0].x(), 0.0);
+}
+
+TEST_F(MeshSequence, FramesPastTheLastAndEmptyFoldersAreRefused) {
+  const std::string dir = write_copies();
+  std::string m = message_of([&] { read_deformed_copy(dir, -1, 1.0, 2.5); });
+  EXPECT_EQ(m.rfind("frame = 2.5", 0), 0u) << m;
+  EXPECT_NE(m.find("last frame, 2 (3 copies in"), std::string::npos) << m;
+  m = message_of([&] { read_deformed_copy(dir, 0, 1.0, 1); });
+  EXPECT_EQ(m.rfind("morph", 0), 0u) << m;
+  fs::create_directories(dir_ / "empty");
+  std::ofstream(dir_ / "empty" / "readme.txt") << "no mesh here\n";
+  m = message_of([&] { sequence_files((dir_ / "empty").string()); });
+  EXPECT_NE(m.find("no mesh file"), std::string::npos) << m;
+  // A copy with another vertex count than the frame before it.
+  PolygonSoup bigger = tetrahedron(3);
+  bigger.vertices.push_back({9, 9, 9});
+  raywarp::testing::write_ply((fs::path(dir) / "copy_11.ply").string(), bigger);
+  m = message_of([&] { read_deformed_copy(dir, -1, 1.0, 2.5); });
+  EXPECT_NE(m.find("copy_11.ply has 5 vertices"), std::string::npos) << m;
+}
+
+TEST_F(MeshSequence, GltfFramesAreItsMorphTargets) {
+  const std::string gltf = path("morphs.gltf");
+  raywarp::testing::write_gltf(gltf, tetrahedron(0), {tetrahedron(1), tetrahedron(2)});
+  EXPECT_EQ(sequence_frames(gltf), 2);
+  EXPECT_EQ(sequence_frames(path("plain.ply")), 0);
+  for (double frame : {0.0, 0.5, 1.0}) {
+    const DeformedCopy copy = read_deformed_copy(gltf, -1, 1.0, frame);
+    EXPECT_EQ(copy.frames, 2);
+    // Morph target k is the base shifted by k + 1 (stored as floats: exact for these values).
+    EXPECT_DOUBLE_EQ(copy.vertices.positions[0].x(), 1.0 + frame) << frame;
+  }
+  // Frame k is morph target k at weight 1.
+  const DeformedCopy morph = read_deformed_copy(gltf, 1, 1.0, -1);
+  EXPECT_EQ(morph.frames, 0);
+  EXPECT_EQ(morph.vertices.positions[3],
+            read_deformed_copy(gltf, -1, 1.0, 1).vertices.positions[3]);
+  const std::string m = message_of([&] { read_deformed_copy(gltf, -1, 1.0, 1.5); });
+  EXPECT_NE(m.find("last frame, 1 (2 morph targets in"), std::string::npos) << m;
+  raywarp::testing::write_ply(path("plain.ply"), tetrahedron(0));
+  const std::string none = message_of([&] { read_deformed_copy(path("plain.ply"), -1, 1, 0); });
+  EXPECT_NE(none.find("no morph target"), std::string::npos) << none;
+}
+
+// The scene file: a folder target's frames are checked when the scene is read.
+TEST_F(MeshSequence, SceneFieldsAreCheckedWhenTheSceneIsRead) {
+  const std::string dir = write_copies();
+  raywarp::testing::write_ply(path("mesh.ply"), tetrahedron(0));
+  auto scene = [&](const json& deformer) {
+    return json{{"mesh", "mesh.ply"},
+                {"boxes", {{{"min", {-1, -1, -1}}, {"max", {4, 2, 2}}, {"deformer", deformer}}}}};
+  };
+  auto load = [&](const json& deformer) {
+    return message_of([&] { load_scene_json(scene(deformer), path("s.json")); });
+  };
+  EXPECT_EQ(load({{"type", "from_mesh"}, {"target", "copies"}, {"frame", 2}}), "");
+  EXPECT_EQ(load({{"type", "from_mesh"}, {"target", "copies"}}), "");
+  std::string m = load({{"type", "from_mesh"}, {"target", "copies"}, {"frame", 3}});
+  EXPECT_NE(m.find("boxes[0].deformer.frame = 3: past the sequence's last frame, 2"),
+            std::string::npos)
+      << m;
+  m = load({{"type", "from_mesh"}, {"target", "copies"}, {"morph", 0}});
+  EXPECT_NE(m.find("boxes[0].deformer.morph"), std::string::npos) << m;
+  EXPECT_NE(m.find("give \"frame\""), std::string::npos) << m;
+  raywarp::testing::write_gltf(path("m.gltf"), tetrahedron(0), {tetrahedron(1)});
+  m = load({{"type", "from_mesh"}, {"target", "m.gltf"}, {"morph", 0}, {"frame", 0}});
+  EXPECT_NE(m.find("boxes[0].deformer.frame"), std::string::npos) << m;
+  m = load({{"type", "from_mesh"}, {"target", "copies"}, {"frame", -1}});
+  EXPECT_NE(m.find("boxes[0].deformer.frame"), std::string::npos) << m;
+  fs::create_directories(dir_ / "empty");
+  m = load({{"type", "from_mesh"}, {"target", "empty"}});
+  EXPECT_NE(m.find("boxes[0].deformer.target"), std::string::npos) << m;
+  EXPECT_NE(m.find("no mesh file"), std::string::npos) << m;
+  (void)dir;
+}
+
+}  // namespace
