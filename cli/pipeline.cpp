@@ -87,7 +87,9 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
     log << ": " << f.pairs << " of the mesh's " << f.mesh_vertices << " vertices in the box ("
         << f.file_vertices << " in the file), largest move " << fmt("%.4g", f.largest_move)
         << "; fit |F(source) - target| max " << fmt("%.3g", f.fit_max_error) << ", rms "
-        << fmt("%.3g", f.fit_rms_error) << " units (" << fmt("%.2f", f.seconds) << " s)\n";
+        << fmt("%.3g", f.fit_rms_error) << " units"
+        << (from_cache(r.stage(Stage::Fit)) ? ", fit from the cache" : "") << " ("
+        << fmt("%.2f", f.seconds) << " s)\n";
   }
   const StageReport* def = r.stage(Stage::Deformation);
   if (from_cache(def)) log << tag << "deformation texture and its figures from the cache\n";

@@ -872,14 +872,31 @@ class FromMesh final : public Deformer {
   std::string description_;
 };
 
-}  // namespace
+// The lattice of `resolution` cells along the box's longest side: the simulation's, a whole
+// number of cells per axis, as near cubic as that allows.
+Eigen::Vector3i lattice_cells(const Eigen::Vector3d& h, int resolution) {
+  const double target = 2.0 * h.maxCoeff() / resolution;
+  Eigen::Vector3i cells;
+  for (int a = 0; a < 3; ++a)
+    cells[a] = std::max(1, static_cast<int>(std::lround(2.0 * h[a] / target)));
+  return cells;
+}
 
-std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
-                                         const std::vector<PointPair>& pairs,
-                                         const FromMeshParams& params, FromMeshFit* fit,
-                                         Interrupter* interrupter) {
-  const auto start = std::chrono::steady_clock::now();
-  const Eigen::Vector3d& h = half_extents;
+std::string describe_fit(long n_pairs, const Eigen::Vector3i& cells, const FromMeshParams& params) {
+  std::string text =
+      "from mesh (" + std::to_string(n_pairs) + (n_pairs == 1 ? " pair, " : " pairs, ") +
+      std::to_string(cells.x()) + " x " + std::to_string(cells.y()) + " x " +
+      std::to_string(cells.z()) + " cells, " +
+      (params.smoothing == FromMeshSmoothing::thin_plate ? "thin plate " : "membrane ") +
+      shortest_text(params.smoothness);
+  std::string faces;
+  for (int f = 0; f < 6; ++f)
+    if (params.pinned[f]) faces += std::string(" ") + kFaceNames[f];
+  if (!faces.empty()) text += ", pinned" + faces;
+  return text + ")";
+}
+
+void check_params(const Eigen::Vector3d& h, const FromMeshParams& params) {
   check_half_extents("from mesh", h);
   if (params.resolution < kFromMeshMinResolution || params.resolution > kFromMeshMaxResolution)
     throw Error("resolution = " + std::to_string(params.resolution) + ": must be an integer in [" +
@@ -892,6 +909,48 @@ std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
     throw Error("smoothness = " + shortest_text(params.smoothness) + ": must be in [1e-10, 1]");
   if (!(params.tolerance >= 1e-10 && params.tolerance <= 1e-2))
     throw Error("tolerance = " + shortest_text(params.tolerance) + ": must be in [1e-10, 0.01]");
+}
+
+}  // namespace
+
+std::unique_ptr<Deformer> from_mesh_fitted(const Eigen::Vector3d& half_extents,
+                                           const FromMeshParams& params,
+                                           const std::vector<Eigen::Vector3d>& positions,
+                                           long pairs, Interrupter* interrupter) {
+  const Eigen::Vector3d& h = half_extents;
+  check_params(h, params);
+  const Eigen::Vector3i cells = lattice_cells(h, params.resolution);
+  const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
+  const std::vector<Grid> grids = hierarchy(cells, spacing);
+  const Grid& grid = grids[0];
+  if (static_cast<long>(positions.size()) != grid.count)
+    throw Error("fitted positions: " + std::to_string(positions.size()) +
+                " given, the lattice of " + std::to_string(cells.x()) + " x " +
+                std::to_string(cells.y()) + " x " + std::to_string(cells.z()) + " cells has " +
+                std::to_string(grid.count) + " samples");
+  for (const Eigen::Vector3d& p : positions)
+    if (!p.allFinite()) throw Error("fitted positions: not finite");
+  const std::size_t bytes = lattice_bytes_fitted(grid, positions, interrupter);
+  if (bytes > kFromMeshMaxBytes)
+    throw Error("resolution = " + std::to_string(params.resolution) +
+                ": the fitted lattice needs " + mib_text(bytes) + ", more than the " +
+                mib_text(kFromMeshMaxBytes) + " allowed");
+  std::vector<int> node_of_sample(static_cast<size_t>(grid.count));
+  for (long n = 0; n < grid.count; ++n)
+    node_of_sample[static_cast<size_t>(n)] = static_cast<int>(n);
+  return std::make_unique<FromMesh>(
+      make_lattice_deformer(SimModel::grid, h, cells, node_of_sample, positions, params.pinned),
+      describe_fit(pairs, cells, params));
+}
+
+std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
+                                         const std::vector<PointPair>& pairs,
+                                         const FromMeshParams& params, FromMeshFit* fit,
+                                         Interrupter* interrupter,
+                                         std::vector<Eigen::Vector3d>* positions_out) {
+  const auto start = std::chrono::steady_clock::now();
+  const Eigen::Vector3d& h = half_extents;
+  check_params(h, params);
   if (pairs.empty())
     throw Error(
         "pairs: none given: the fit needs at least one vertex of the mesh inside the box, with "
@@ -912,12 +971,7 @@ std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
   }
   const long n_pairs = static_cast<long>(pairs.size());
 
-  // The lattice: the simulation's, a whole number of cells per axis, as near cubic as that
-  // allows.
-  const double target = 2.0 * h.maxCoeff() / params.resolution;
-  Eigen::Vector3i cells;
-  for (int a = 0; a < 3; ++a)
-    cells[a] = std::max(1, static_cast<int>(std::lround(2.0 * h[a] / target)));
+  const Eigen::Vector3i cells = lattice_cells(h, params.resolution);
   const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
 
   // The sources (moved onto the box within the slack) and their displacements.
@@ -1033,19 +1087,12 @@ std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
   std::unique_ptr<Deformer> lattice =
       make_lattice_deformer(SimModel::grid, h, cells, node_of_sample, positions, params.pinned);
   std::vector<int>().swap(node_of_sample);
-  std::vector<Eigen::Vector3d>().swap(positions);
-
-  std::string text =
-      "from mesh (" + std::to_string(n_pairs) + (n_pairs == 1 ? " pair, " : " pairs, ") +
-      std::to_string(cells.x()) + " x " + std::to_string(cells.y()) + " x " +
-      std::to_string(cells.z()) + " cells, " +
-      (params.smoothing == FromMeshSmoothing::thin_plate ? "thin plate " : "membrane ") +
-      shortest_text(params.smoothness);
-  std::string faces;
-  for (int f = 0; f < 6; ++f)
-    if (params.pinned[f]) faces += std::string(" ") + kFaceNames[f];
-  if (!faces.empty()) text += ", pinned" + faces;
-  auto deformer = std::make_unique<FromMesh>(std::move(lattice), text + ")");
+  if (positions_out)
+    *positions_out = std::move(positions);
+  else
+    std::vector<Eigen::Vector3d>().swap(positions);
+  auto deformer =
+      std::make_unique<FromMesh>(std::move(lattice), describe_fit(n_pairs, cells, params));
 
   if (fit) {
     // The fit's error, through the deformer itself.

@@ -106,9 +106,21 @@ struct FromMeshFit {
   std::size_t bytes = 0;         // peak memory estimate (the larger of the two phases)
 };
 
+// `positions`, optional, receives the fitted lattice (every sample at rest + u, x fastest over
+// cells + 1 samples per axis), which from_mesh_fitted turns back into this deformer without the
+// fit (a bake cache keeps it).
 std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
                                          const std::vector<PointPair>& pairs,
                                          const FromMeshParams& params, FromMeshFit* fit = nullptr,
-                                         Interrupter* interrupter = nullptr);
+                                         Interrupter* interrupter = nullptr,
+                                         std::vector<Eigen::Vector3d>* positions = nullptr);
+
+// The deformer make_from_mesh built with these half extents and params from the `pairs` pairs
+// whose fitted lattice is `positions`. Throws Error when the positions are not finite or their
+// count is not the lattice's, or past kFromMeshMaxBytes.
+std::unique_ptr<Deformer> from_mesh_fitted(const Eigen::Vector3d& half_extents,
+                                           const FromMeshParams& params,
+                                           const std::vector<Eigen::Vector3d>& positions,
+                                           long pairs, Interrupter* interrupter = nullptr);
 
 }  // namespace raywarp

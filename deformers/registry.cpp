@@ -194,6 +194,18 @@ std::array<bool, 6> crossed_faces(const Eigen::Vector3d& h, const SimulationInpu
   return faces;
 }
 
+}  // namespace
+
+FromMeshParams from_mesh_params(const DeformerSpec& d, const Eigen::Vector3d& h,
+                                const SimulationInput& part) {
+  FromMeshParams params;
+  params.resolution = static_cast<int>(d.fit_resolution);
+  params.pinned = d.pinned_given ? d.pinned : crossed_faces(h, part, params.resolution);
+  return params;
+}
+
+namespace {
+
 std::vector<DeformerType> make_registry() {
   std::vector<DeformerType> types;
   {
@@ -549,9 +561,7 @@ std::vector<DeformerType> make_registry() {
     t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h,
                         const SimulationInput& part, std::vector<std::string>* w,
                         Interrupter* interrupter) -> std::unique_ptr<Deformer> {
-      FromMeshParams params;
-      params.resolution = static_cast<int>(d.fit_resolution);
-      params.pinned = d.pinned_given ? d.pinned : crossed_faces(h, part, params.resolution);
+      const FromMeshParams params = from_mesh_params(d, h, part);
       if (part.sources.empty() || part.sources.size() != part.targets.size())
         throw Error("target: no vertex of the mesh lies in the box: nothing to fit");
       std::vector<PointPair> pairs(part.sources.size());

@@ -27,6 +27,7 @@
 #include "base/interrupt.h"
 #include "base/json_reader.h"
 #include "deformers/deformer.h"
+#include "deformers/from_mesh.h"
 #include "deformers/simulation.h"
 
 namespace raywarp {
@@ -173,6 +174,10 @@ std::unique_ptr<Deformer> make_deformer(const DeformerSpec& d, const Eigen::Vect
                                         Interrupter* interrupter = nullptr);
 // A simulation spec's parameters (type "simulation").
 SimulationParams simulation_params(const DeformerSpec& d);
+// A from_mesh spec's fit parameters: its resolution and pinned faces (as given, else the faces
+// the mesh part crosses, where part.signed_distance > 0 on a face's lattice samples).
+FromMeshParams from_mesh_params(const DeformerSpec& d, const Eigen::Vector3d& h,
+                                const SimulationInput& part);
 // The Markdown table of every type and parameter (docs/scene.md holds it).
 std::string deformer_table();
 

@@ -261,6 +261,60 @@ std::uint64_t value_bytes(const SimulationRecord& s) {
   return s.positions.size() * sizeof(Eigen::Vector3d);
 }
 
+// A from_mesh fit: the fitted lattice (box frame) and the report of the pairs and the fit.
+struct FitRecord {
+  std::vector<Eigen::Vector3d> positions;
+  FromMeshReport report;
+  Eigen::Vector3i cells = Eigen::Vector3i::Zero();
+};
+
+std::vector<char> save_fit(const FitRecord& f) {
+  CacheWriter w;
+  w.integer(static_cast<long>(f.positions.size()));
+  for (const Eigen::Vector3d& p : f.positions)
+    for (int i = 0; i < 3; ++i) w.number(p[i]);
+  const FromMeshReport& r = f.report;
+  for (long v : {r.pairs, r.file_vertices, r.mesh_vertices, r.torn, r.moved_outside,
+                 static_cast<long>(r.frames), static_cast<long>(f.cells.x()),
+                 static_cast<long>(f.cells.y()), static_cast<long>(f.cells.z())})
+    w.integer(v);
+  for (double v : {r.largest_move, r.fit_max_error, r.fit_rms_error, r.seconds, r.frame})
+    w.number(v);
+  return w.bytes();
+}
+
+bool load_fit(const std::vector<char>& bytes, FitRecord& f) {
+  CacheReader r(bytes);
+  FitRecord out;
+  const long n = r.integer();
+  if (!r.ok() || n < 0 || n > kMaxSimulationNodes) return false;
+  out.positions.resize(static_cast<size_t>(n));
+  for (Eigen::Vector3d& p : out.positions)
+    for (int i = 0; i < 3; ++i) p[i] = r.number();
+  FromMeshReport& m = out.report;
+  m.pairs = r.integer();
+  m.file_vertices = r.integer();
+  m.mesh_vertices = r.integer();
+  m.torn = r.integer();
+  m.moved_outside = r.integer();
+  m.frames = static_cast<int>(r.integer());
+  for (int a = 0; a < 3; ++a) out.cells[a] = static_cast<int>(r.integer());
+  m.largest_move = r.number();
+  m.fit_max_error = r.number();
+  m.fit_rms_error = r.number();
+  m.seconds = r.number();
+  m.frame = r.number();
+  if (!r.ok() || !r.at_end() || m.pairs < 1) return false;
+  for (const Eigen::Vector3d& p : out.positions)
+    if (!p.allFinite()) return false;
+  f = std::move(out);
+  return true;
+}
+
+std::uint64_t value_bytes(const FitRecord& f) {
+  return f.positions.size() * sizeof(Eigen::Vector3d) + sizeof(FitRecord);
+}
+
 }  // namespace
 
 const char* stage_name(Stage stage) {
@@ -271,6 +325,8 @@ const char* stage_name(Stage stage) {
       return "depth cube";
     case Stage::Simulation:
       return "simulation";
+    case Stage::Fit:
+      return "from mesh fit";
     case Stage::Deformation:
       return "deformation texture";
     case Stage::Alpha:
@@ -642,28 +698,28 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   std::string simulation_key;
   if (on_mesh && spec.deformer.type == "from_mesh") {
     // A deformed copy of the mesh: the vertex pairs inside the box, fitted by the deformer. The
-    // key of what follows names the copy's bytes (and a glTF's buffers).
+    // keys name the bytes of the copies the frame reads (and a glTF's buffers); the fitted
+    // lattice is a stage of its own, so a cached fit neither reads the copy nor fits again.
     const DeformerSpec& d = spec.deformer;
     const int morph = d.morph < 0 ? -1 : static_cast<int>(d.morph);
-    const auto started = std::chrono::steady_clock::now();
-    const DeformedCopy copy = [&] {
-      try {
-        return read_deformed_copy(d.target, morph, d.weight, d.frame);
-      } catch (const Error& e) {
-        const std::string what = e.what();
-        const bool names_field = what.rfind("frame", 0) == 0 || what.rfind("morph", 0) == 0;
-        throw Error(job.where + ".deformer." + (names_field ? "" : "target: ") + what);
-      }
-    }();
-    const MeshPairs pairs = [&] {
-      try {
-        return mesh_pairs(job.mesh->file.string(), mesh, copy.vertices, copy.name, spec.box);
-      } catch (const Error& e) {
-        throw Error(job.where + ".deformer.target: " + e.what());
-      }
-    }();
+    auto field_error = [&](const Error& e) {
+      const std::string what = e.what();
+      const bool names_field = what.rfind("frame", 0) == 0 || what.rfind("morph", 0) == 0;
+      return Error(job.where + ".deformer." + (names_field ? "" : "target: ") + what);
+    };
+    std::vector<std::string> files;
+    try {
+      files = deformed_copy_files(d.target, d.frame);
+    } catch (const Error& e) {
+      throw field_error(e);
+    }
     simulation_key = "\nfrom mesh" + job.mesh->hash + " target";
-    for (const std::string& file : copy.files) simulation_key += " " + target_hash(file);
+    for (const std::string& file : files) simulation_key += " " + target_hash(file);
+    const std::string fit_key = (Key() << "from mesh fit\nmesh" << job.mesh->hash << "\n"
+                                       << box_key(spec.box) << "\n"
+                                       << simulation_key << "\n"
+                                       << deformer_key(d))
+                                    .str();
     const double cell = 2.0 * spec.box.half_extents.maxCoeff() / d.fit_resolution;
     const double bound = 2.0 * std::sqrt(3.0) * cell;
     const TriangleBvh bvh(mesh);
@@ -672,44 +728,86 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       const double dist = bvh.nearest_distance(spec.box.to_object(q), bound);
       return implicit_value(tex, q) > 0.0 ? dist : -dist;
     };
-    part.sources = pairs.sources;
-    part.targets = pairs.targets;
-    try {
-      out.deformer = make_deformer(d, spec.box.half_extents, part, &notes, interrupter);
-    } catch (const Error& e) {
-      throw Error(job.where + ".deformer: " + e.what());
+    const FromMeshParams params = from_mesh_params(d, spec.box.half_extents, part);
+    std::unique_ptr<Deformer> fitted;
+    FitRecord fit;
+    const Source source = stage(
+        fit, "from mesh fit", fit_key, counters_.fit,
+        [&] {
+          const auto started = std::chrono::steady_clock::now();
+          const DeformedCopy copy = [&] {
+            try {
+              return read_deformed_copy(d.target, morph, d.weight, d.frame);
+            } catch (const Error& e) {
+              throw field_error(e);
+            }
+          }();
+          const MeshPairs pairs = [&] {
+            try {
+              return mesh_pairs(job.mesh->file.string(), mesh, copy.vertices, copy.name, spec.box);
+            } catch (const Error& e) {
+              throw Error(job.where + ".deformer.target: " + e.what());
+            }
+          }();
+          if (pairs.sources.empty())
+            throw Error(job.where +
+                        ".deformer.target: no vertex of the mesh lies in the box: nothing to fit");
+          std::vector<PointPair> point_pairs(pairs.sources.size());
+          for (size_t i = 0; i < point_pairs.size(); ++i)
+            point_pairs[i] = {pairs.sources[i], pairs.targets[i]};
+          FitRecord r;
+          FromMeshFit figures;
+          try {
+            fitted = make_from_mesh(spec.box.half_extents, point_pairs, params, &figures,
+                                    interrupter, &r.positions);
+          } catch (const Error& e) {
+            throw Error(job.where + ".deformer: " + e.what());
+          }
+          FromMeshReport& fm = r.report;
+          fm.pairs = static_cast<long>(pairs.sources.size());
+          fm.frames = copy.frames;
+          fm.frame = std::max(d.frame, 0.0);
+          fm.file_vertices = pairs.file_vertices;
+          fm.mesh_vertices = pairs.mesh_vertices;
+          fm.torn = pairs.torn;
+          fm.largest_move = pairs.largest_move;
+          fm.moved_outside = pairs.moved_outside;
+          fm.fit_max_error = figures.max_error;
+          fm.fit_rms_error = figures.rms_error;
+          fm.seconds = seconds_since(started);
+          r.cells = figures.cells;
+          return r;
+        },
+        save_fit, load_fit);
+    if (!fitted) {
+      try {
+        fitted = from_mesh_fitted(spec.box.half_extents, params, fit.positions, fit.report.pairs,
+                                  interrupter);
+      } catch (const Error& e) {
+        throw Error(job.where + ": the cached from_mesh fit does not fit the box: " + e.what());
+      }
     }
-    for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
+    out.deformer = std::move(fitted);
     report.deformer = out.deformer->describe();
-    FromMeshReport fm;
-    fm.pairs = static_cast<long>(pairs.sources.size());
-    fm.frames = copy.frames;
-    fm.frame = std::max(d.frame, 0.0);
-    fm.file_vertices = pairs.file_vertices;
-    fm.mesh_vertices = pairs.mesh_vertices;
-    fm.torn = pairs.torn;
-    fm.largest_move = pairs.largest_move;
-    fm.moved_outside = pairs.moved_outside;
-    // How closely F meets the pairs: |F(s) - t| over them.
-    double sum2 = 0.0;
-    for (size_t i = 0; i < pairs.sources.size(); ++i) {
-      const double e = (out.deformer->forward(pairs.sources[i]) - pairs.targets[i]).norm();
-      fm.fit_max_error = std::max(fm.fit_max_error, e);
-      sum2 += e * e;
-    }
-    fm.fit_rms_error =
-        pairs.sources.empty() ? 0.0 : std::sqrt(sum2 / static_cast<double>(pairs.sources.size()));
-    fm.seconds = seconds_since(started);
-    report.from_mesh = fm;
-    if (pairs.torn > 0)
+    report.from_mesh = fit.report;
+    StageReport s;
+    s.stage = Stage::Fit;
+    s.source = source;
+    s.resolution = fit.cells;
+    s.spacing = (2.0 * spec.box.half_extents).cwiseQuotient(fit.cells.cast<double>().cwiseMax(1.0));
+    s.bytes = value_bytes(fit);
+    s.seconds = fit.report.seconds;
+    report.stages.push_back(s);
+    const FromMeshReport& fm = fit.report;
+    if (fm.torn > 0)
       report.warnings.push_back(
-          {"torn_target", std::to_string(pairs.torn) +
+          {"torn_target", std::to_string(fm.torn) +
                               " vertices the mesh joins are pulled apart by the target (it tears "
                               "the surface there): each is moved to the mean of its copies"});
-    if (pairs.moved_outside > 0)
+    if (fm.moved_outside > 0)
       report.warnings.push_back(
           {"target_outside_box",
-           std::to_string(pairs.moved_outside) +
+           std::to_string(fm.moved_outside) +
                " vertices outside the box move in the target: they are drawn at rest; grow the "
                "box to hold the whole deformation"});
   } else if (on_mesh) {

@@ -48,7 +48,8 @@ using MeshPtr = std::shared_ptr<const MeshHandle>;
 MeshPtr load_mesh_handle(const std::filesystem::path& file);
 
 // The stages of a box's bake, in the order they run.
-enum class Stage { DistanceGrid, DepthCube, Simulation, Deformation, Alpha, StepBounds };
+// Fit: a from_mesh deformer's fitted lattice (deformers/from_mesh.h).
+enum class Stage { DistanceGrid, DepthCube, Simulation, Deformation, Alpha, StepBounds, Fit };
 const char* stage_name(Stage stage);  // "distance grid", "depth cube", ...
 // Where a stage's result came from.
 enum class Source { Baked, Memory, Disk };
@@ -182,10 +183,10 @@ class BakeSession {
   // Stages baked (not read from memory or disk) since the session began.
   struct Counters {
     long distance_grid = 0, depth_cube = 0, simulation = 0, deformation = 0, alpha = 0,
-         step_bounds = 0;
+         step_bounds = 0, fit = 0;
     long memory_hits = 0, disk_hits = 0;
     long baked() const {
-      return distance_grid + depth_cube + simulation + deformation + alpha + step_bounds;
+      return distance_grid + depth_cube + simulation + deformation + alpha + step_bounds + fit;
     }
   };
   const Counters& counters() const { return counters_; }

@@ -98,6 +98,40 @@ int sequence_frames(const std::string& target) {
   return load_file_vertices(target).morph_targets;
 }
 
+namespace {
+
+// Frame `frame` of a sequence of `frames`: the frame before it, the one after and the blend.
+struct FramePick {
+  int a = 0, b = 0;
+  double t = 0.0;
+};
+
+FramePick pick_frame(double frame, int frames, const std::string& what) {
+  if (!std::isfinite(frame)) throw Error("frame: must be a finite number");
+  const double f = std::max(frame, 0.0);
+  if (f > frames - 1)
+    throw Error("frame = " + shortest_text(frame) + ": past the sequence's last frame, " +
+                std::to_string(frames - 1) + " (" + what + ")");
+  FramePick p;
+  p.a = static_cast<int>(std::floor(f));
+  p.b = std::min(p.a + 1, frames - 1);
+  p.t = f - p.a;
+  return p;
+}
+
+}  // namespace
+
+std::vector<std::string> deformed_copy_files(const std::string& target, double frame) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(target, ec)) return {target};
+  const std::vector<std::string> files = sequence_files(target);
+  const int n = static_cast<int>(files.size());
+  const FramePick p = pick_frame(frame, n, std::to_string(n) + " copies in " + target);
+  std::vector<std::string> out = {files[static_cast<size_t>(p.a)]};
+  if (p.t > 0.0 && p.b != p.a) out.push_back(files[static_cast<size_t>(p.b)]);
+  return out;
+}
+
 DeformedCopy read_deformed_copy(const std::string& target, int morph, double weight, double frame) {
   DeformedCopy out;
   std::error_code ec;
@@ -111,8 +145,6 @@ DeformedCopy read_deformed_copy(const std::string& target, int morph, double wei
   if (morph >= 0)
     throw Error("morph = " + std::to_string(morph) +
                 ": a sequence's frame picks the copy; give one of frame and morph");
-  if (!std::isfinite(frame)) throw Error("frame: must be a finite number");
-  const double f = std::max(frame, 0.0);
   std::vector<std::string> files;
   if (folder) {
     files = sequence_files(target);
@@ -129,12 +161,9 @@ DeformedCopy read_deformed_copy(const std::string& target, int morph, double wei
     return folder ? std::to_string(out.frames) + " copies in " + target
                   : std::to_string(out.frames) + " morph targets in " + target;
   };
-  if (f > out.frames - 1)
-    throw Error("frame = " + shortest_text(frame) + ": past the sequence's last frame, " +
-                std::to_string(out.frames - 1) + " (" + describe_range() + ")");
-  const int a = static_cast<int>(std::floor(f));
-  const int b = std::min(a + 1, out.frames - 1);
-  const double t = f - a;
+  const FramePick pick = pick_frame(frame, out.frames, describe_range());
+  const int a = pick.a, b = pick.b;
+  const double t = pick.t;
   auto read = [&](int k) {
     return folder ? load_file_vertices(files[static_cast<size_t>(k)])
                   : load_file_vertices(target, k, 1.0);

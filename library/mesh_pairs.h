@@ -53,6 +53,11 @@ int sequence_frames(const std::string& target);
 // ..." or the file's message otherwise.
 DeformedCopy read_deformed_copy(const std::string& target, int morph, double weight, double frame);
 
+// The files read_deformed_copy(target, ..., frame) reads, without reading them: of a folder,
+// frame floor(frame)'s copy and, for a fraction, the next one; otherwise `target`. Throws Error
+// as read_deformed_copy does for a folder's frame past the last.
+std::vector<std::string> deformed_copy_files(const std::string& target, double frame);
+
 // `mesh` is load_mesh(mesh_file); `moved` the target's vertices, `target_name` for messages. A
 // vertex is in the box within 1e-9 of its diagonal; "moves" means by more than 1e-9 of the box
 // diagonal. Throws Error naming both files when their vertex counts differ.

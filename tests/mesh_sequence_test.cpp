@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "base/error.h"
+#include "library/bake.h"
+#include "library/bake_cache.h"
 #include "library/mesh_pairs.h"
 #include "library/scene.h"
 #include "tests/mesh_files.h"
@@ -151,6 +153,59 @@ TEST_F(MeshSequence, SceneFieldsAreCheckedWhenTheSceneIsRead) {
   EXPECT_NE(m.find("boxes[0].deformer.target"), std::string::npos) << m;
   EXPECT_NE(m.find("no mesh file"), std::string::npos) << m;
   (void)dir;
+}
+
+// A from_mesh fit is a stage of the bake: a second session with the same disk cache reads the
+// fitted lattice (and reads no copy), and its deformer is the fitted one; another frame fits
+// again.
+TEST_F(MeshSequence, TheFitIsCachedPerFrame) {
+  // An octahedron as the mesh, so that the box holds a solid; its copies raise the top vertex.
+  const fs::path dir = dir_ / "octa";
+  fs::create_directories(dir);
+  auto octahedron = [](double top) {
+    PolygonSoup soup;
+    soup.vertices = {{1, 0, 0}, {-1, 0, 0}, {0, top, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    soup.sizes = std::vector<int>(8, 3);
+    soup.corners = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+    return soup;
+  };
+  raywarp::testing::write_ply(path("octa.ply"), octahedron(1.0));
+  raywarp::testing::write_ply((dir / "a_0.ply").string(), octahedron(1.0));
+  raywarp::testing::write_ply((dir / "a_1.ply").string(), octahedron(1.3));
+  auto scene_at = [&](double frame) {
+    const json doc = {
+        {"mesh", "octa.ply"},
+        {"boxes",
+         {{{"min", {-1.2, -1.2, -1.2}},
+           {"max", {1.2, 1.6, 1.2}},
+           {"deformer",
+            {{"type", "from_mesh"}, {"target", "octa"}, {"frame", frame}, {"resolution", 8}}},
+           {"implicit", {{"resolution", 16}}},
+           {"deformation", {{"resolution", 16}}}}}}};
+    return load_scene_json(doc, path("s.json"));
+  };
+  BakeCache cache(dir_ / "cache");
+  auto bake = [&](double frame) {
+    BakeSession session(&cache);
+    const Scene scene = scene_at(frame);
+    return session.bake(make_job(scene, 0, session.mesh(scene.mesh)));
+  };
+  const BakedBox first = bake(1);
+  const BakedBox again = bake(1);
+  const BakedBox other = bake(0.5);
+  ASSERT_NE(first.report.stage(Stage::Fit), nullptr);
+  EXPECT_EQ(first.report.stage(Stage::Fit)->source, Source::Baked);
+  EXPECT_EQ(again.report.stage(Stage::Fit)->source, Source::Disk);
+  EXPECT_EQ(other.report.stage(Stage::Fit)->source, Source::Baked);
+  ASSERT_TRUE(again.report.from_mesh);
+  EXPECT_EQ(again.report.from_mesh->pairs, first.report.from_mesh->pairs);
+  EXPECT_EQ(again.report.from_mesh->frames, 2);
+  EXPECT_EQ(again.report.deformer, first.report.deformer);
+  // The top vertex (box frame: its centre is (0, 0.2, 0)) goes where the copy puts it.
+  const Eigen::Vector3d top(0, 0.8, 0);
+  EXPECT_NEAR((first.deformer->forward(top) - Eigen::Vector3d(0, 1.1, 0)).norm(), 0, 1e-3);
+  EXPECT_EQ(first.deformer->forward(top), again.deformer->forward(top));
+  EXPECT_NEAR(other.deformer->forward(top).y(), 0.95, 1e-3);
 }
 
 }  // namespace
