@@ -124,39 +124,50 @@ std::vector<AnimatedParam> sequence_params(const Scene& scene, int* longest) {
 
 namespace {
 
-// The box whose twist angle alone is animated, when M can animate it; -1 otherwise, with the
-// reason in `why`.
-int mapped_twist_box(const Scene& scene, const std::vector<AnimatedParam>& params,
-                     std::string& why) {
+// What M animates: a twist's angle (a scale along its axis) or a peel's hinge (a translation
+// along the peel direction; library/texture_map.h).
+enum class Mapped { none, twist_angle, peel_hinge };
+
+// The box whose twist angle or peel hinge alone is animated, when M can animate it, and how;
+// -1 otherwise, with the reason in `why`.
+int mapped_box(const Scene& scene, const std::vector<AnimatedParam>& params, Mapped& how,
+               std::string& why) {
+  how = Mapped::none;
   if (params.size() != 1) {
     why = "more than one parameter";
     return -1;
   }
-  static const std::regex angle(R"(boxes\[(\d+)\]\.deformer(\[0\])?\.angle_deg)");
+  static const std::regex field(R"(boxes\[(\d+)\]\.deformer(\[0\])?\.(angle_deg|hinge))");
   std::smatch m;
   const AnimatedParam& p = params[0];
-  if (!std::regex_match(p.path, m, angle)) {
-    why = p.path + " is not a twist's angle";
+  if (!std::regex_match(p.path, m, field)) {
+    why = p.path + " is neither a twist's angle nor a peel's hinge";
     return -1;
   }
   const size_t box = std::stoul(m[1].str());
-  if (box >= scene.boxes.size() || scene.boxes[box].deformer.type != "twist" ||
+  const bool angle = m[3].str() == "angle_deg";
+  const char* type = angle ? "twist" : "peel";
+  if (box >= scene.boxes.size() || scene.boxes[box].deformer.type != type ||
       !scene.boxes[box].then.empty()) {
-    why = p.path + " is not the angle of a box's only deformer, a twist";
+    why = p.path + " is not the " + (angle ? "angle" : "hinge") + " of a box's only deformer, a " +
+          type;
     return -1;
   }
   if (scene.render.sampling == "bounded") {
     why = "the bounded tracer's step bounds hold for the texture as baked";
     return -1;
   }
-  if (p.from * p.to < 0.0) {
-    why = "the angle changes sign (a twist is scaled about its fixed face, not mirrored)";
-    return -1;
+  if (angle) {
+    if (p.from * p.to < 0.0) {
+      why = "the angle changes sign (a twist is scaled about its fixed face, not mirrored)";
+      return -1;
+    }
+    if (p.from == 0.0 && p.to == 0.0) {
+      why = "the angle stays 0";
+      return -1;
+    }
   }
-  if (p.from == 0.0 && p.to == 0.0) {
-    why = "the angle stays 0";
-    return -1;
-  }
+  how = angle ? Mapped::twist_angle : Mapped::peel_hinge;
   return static_cast<int>(box);
 }
 
@@ -199,26 +210,33 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
   AnimationResult result;
   result.frames = opt.frames;
   std::string why;
-  const int mapped_box = mapped_twist_box(first, opt.params, why);
-  result.mapped = mapped_box >= 0;
+  Mapped how = Mapped::none;
+  const int mapped = mapped_box(first, opt.params, how, why);
+  result.mapped = mapped >= 0;
 
   auto context = gl::create_context(opt.context);
   log << "context: " << context->description() << "\n";
   gl::Renderer renderer;
   PreparedScene prepared;
-  double baked_angle = 0.0;
+  double baked_value = 0.0;  // the twist's angle or the peel's hinge of the one bake
   // One session for the sequence: the mesh is loaded once, and what a frame does not change
   // (the distance grid) is read from memory.
   BakeSession session(opt.cache);
   if (result.mapped) {
-    // Bake once, at the frame with the largest |angle|.
+    // Bake once: at the frame with the largest |angle| (M scales it down), or with the lowest
+    // hinge, the longest flap (M translates it, shortening the flap).
     const AnimatedParam& p = opt.params[0];
-    const int widest = std::abs(p.to) >= std::abs(p.from) ? opt.frames - 1 : 0;
-    baked_angle = widest ? p.to : p.from;
+    const int widest = how == Mapped::twist_angle
+                           ? (std::abs(p.to) >= std::abs(p.from) ? opt.frames - 1 : 0)
+                           : (p.to <= p.from ? opt.frames - 1 : 0);
+    baked_value = widest ? p.to : p.from;
     log << "animation: " << p.path << " from " << shortest_text(p.from) << " to "
         << shortest_text(p.to) << " over " << opt.frames
-        << " frames by the texture map M of eq. 2: one bake, at " << shortest_text(baked_angle)
-        << " degrees\n";
+        << " frames by the texture map M of eq. 2 ("
+        << (how == Mapped::twist_angle ? "a scale along the twist's axis"
+                                       : "a translation along the peel direction")
+        << "): one bake, at " << shortest_text(baked_value)
+        << (how == Mapped::twist_angle ? " degrees\n" : "\n");
     prepared = prepare_scene(scenes[widest], log, session, true);
     ++result.bakes;
     result.textures_baked += prepared.bakes;
@@ -233,12 +251,19 @@ AnimationResult animate(const AnimationOptions& opt, std::ostream& log) {
     const auto start = std::chrono::steady_clock::now();
     std::string what;
     if (result.mapped) {
-      const BoxSpec& spec = scenes[f].boxes[mapped_box];
-      const BoxTextures& baked = prepared.boxes[mapped_box].textures;
-      const double s = spec.deformer.angle_deg / baked_angle;  // in [0, 1]
-      const TextureMapping m = twist_angle_mapping(spec, baked, baked_angle);
-      renderer.set_texture_map(mapped_box, m.map, m.region, m.lipschitz);
-      what = "mapped (s = " + fmt("%.4g", s) + ", no bake)";
+      const BoxSpec& spec = scenes[f].boxes[mapped];
+      const BoxTextures& baked = prepared.boxes[mapped].textures;
+      if (how == Mapped::twist_angle) {
+        const double s = spec.deformer.angle_deg / baked_value;  // in [0, 1]
+        const TextureMapping m = twist_angle_mapping(spec, baked, baked_value);
+        renderer.set_texture_map(mapped, m.map, m.region, m.lipschitz);
+        what = "mapped (s = " + fmt("%.4g", s) + ", no bake)";
+      } else {
+        const TextureMapping m = peel_hinge_mapping(spec, baked, baked_value);
+        renderer.set_texture_map(mapped, m.map, m.region, m.lipschitz);
+        what =
+            "mapped (shifted by " + fmt("%.4g", spec.deformer.hinge - baked_value) + ", no bake)";
+      }
     } else {
       std::ostringstream bake_log;
       prepared = prepare_scene(scenes[f], bake_log, session);

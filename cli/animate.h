@@ -6,6 +6,10 @@
 // the largest |angle| of the sequence, and frame k reads it through M = a scale by
 // s_k = angle_k / angle_baked along the twist axis about the fixed face -a:
 //   q_a -> -h_a + s_k (q_a + h_a),   so theta(M q) = s_k theta(q)  (the twist is linear in t).
+// A peel's hinge (a single peel in its box; the paper's progressive peeling) is baked at the
+// lowest hinge of the sequence, the longest flap, and frame k reads it, D and the alpha map A,
+// through M = a translation by -(hinge_k - hinge_baked) along the peel direction
+// (library/texture_map.h).
 // Every other parameter re-bakes the scene for each frame, and the log says so.
 #pragma once
 #include <filesystem>

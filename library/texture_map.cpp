@@ -4,6 +4,7 @@
 
 #include "base/error.h"
 #include "base/json_reader.h"
+#include "deformers/peel.h"
 #include "deformers/twist.h"
 
 namespace raywarp {
@@ -31,6 +32,28 @@ TextureMapping twist_angle_mapping(const BoxSpec& spec, const BoxTextures& baked
                    .intersection(Eigen::AlignedBox3d(baked.deformation.grid.origin,
                                                      baked.deformation.grid.upper()));
   out.lipschitz = baked.lipschitz + (1.0 - s);
+  return out;
+}
+
+TextureMapping peel_hinge_mapping(const BoxSpec& spec, const BoxTextures& baked,
+                                  double baked_hinge) {
+  const DeformerSpec& d = spec.deformer;
+  if (d.type != "peel" || !spec.then.empty())
+    throw Error("peel_hinge_mapping: the box's only deformer must be a peel");
+  if (!(d.hinge >= baked_hinge))
+    throw Error("peel_hinge_mapping: hinge " + format_number(d.hinge) + " is below " +
+                format_number(baked_hinge) + ", the baked hinge: the flap cannot grow");
+  const int a = 3 - d.axis - d.from_axis;  // the peel direction
+  const double shift = d.hinge - baked_hinge;
+  TextureMapping out;
+  out.map(a, 3) = -shift;
+  // The rays' region: the new peel's deformed box; a translation leaves |I + J_D| as it is.
+  const double texel = baked.deformation.grid.voxel();
+  const auto peel = make_peel(spec.box.half_extents, static_cast<Axis>(d.axis),
+                              Face{static_cast<Axis>(d.from_axis), d.from_side}, d.angle_deg,
+                              d.thickness, d.radius, d.hinge);
+  out.region = deformed_bounds(*peel, spec.box.half_extents, texel);
+  out.lipschitz = baked.lipschitz;
   return out;
 }
 

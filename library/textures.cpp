@@ -32,10 +32,19 @@ std::optional<Eigen::Vector3d> texture_preimage(const BoxTextures& b, const Eige
   if (b.moves_nothing) return b.box.contains_local(q) ? std::optional(p) : std::nullopt;
   const Eigen::Vector3d m = (b.texture_map * q.homogeneous()).head<3>();
   const Grid3<Eigen::Vector4f>& g = b.deformation.grid;
-  if (g.data.empty() || !Eigen::AlignedBox3d(g.origin, g.upper()).contains(m)) return std::nullopt;
+  const bool mapped = !b.texture_map.isIdentity(0.0);
+  const bool in_grid = Eigen::AlignedBox3d(g.origin, g.upper()).contains(m);
+  if (g.data.empty() || (!in_grid && !mapped)) return std::nullopt;
   const Eigen::Vector4d d = g.sample(m);
-  if (!(d[3] >= 0.5) || !d.allFinite()) return std::nullopt;
-  return b.box.to_object(q + d.head<3>());
+  if (!d.allFinite()) return std::nullopt;
+  // Read through M, a texel beyond the box holding the identity is the identity (as the ray
+  // caster's sample_at): the box decides.
+  const bool mapped_out =
+      mapped && !b.box.contains_local(m) && d.head<3>().norm() < kSeamVoxels * implicit_spacing(b);
+  if (!((in_grid && d[3] >= 0.5) || mapped_out)) return std::nullopt;
+  const Eigen::Vector3d local = q + d.head<3>();
+  if (mapped_out && !b.box.contains_local(local)) return std::nullopt;
+  return b.box.to_object(local);
 }
 
 double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p) {

@@ -8,7 +8,7 @@
 // RAYWARP_CUT_HOLLOW, _SOLID, _THICK (a shell of thickness tau), or none; RAYWARP_MOVES_NOTHING
 // (D = 0: no deformation texture is read, and a sample just beyond the box after one inside it
 // reads the distance grid, for the caps of a box cut); RAYWARP_SKIP (empty-space skipping);
-// RAYWARP_TEXTURE_MAP (D read at M p', eq. 2's mapping); RAYWARP_DEPTH_CUBE (the implicit is a
+// RAYWARP_TEXTURE_MAP (D and A read at M p', eq. 2's mapping); RAYWARP_DEPTH_CUBE (the implicit is a
 // depth-map cube, library/depth_cube.h, not the distance grid: no skipping by f, whose |f| is no
 // distance bound). The samplers' units are kTextureUnits'.
 #if defined(RAYWARP_SAMPLING_LINEAR) + defined(RAYWARP_SAMPLING_THRESHOLD) + defined(RAYWARP_SAMPLING_JACOBIAN) + defined(RAYWARP_SAMPLING_BOUNDED) != 1
@@ -105,15 +105,26 @@ float distance_at(vec3 p) { return texture(u_sdf, (p - u_sdf_origin) / u_sdf_siz
 #endif
 bool in_box(vec3 p) { return all(lessThanEqual(abs(p), u_half_extents)); }
 #ifndef RAYWARP_MOVES_NOTHING
-vec4 deformation(vec3 p_def) {
+// Where the textures are read: M p' (eq. 2's mapping), or p'.
+vec3 texture_point(vec3 p_def) {
 #ifdef RAYWARP_TEXTURE_MAP
-  p_def = (u_texture_map * vec4(p_def, 1.0)).xyz;
+  return (u_texture_map * vec4(p_def, 1.0)).xyz;
+#else
+  return p_def;
 #endif
-  return texture(u_deformation, (p_def - u_def_origin) / u_def_size);
+}
+vec4 deformation(vec3 p_def) {
+  return texture(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size);
 }
 #endif
 #ifdef RAYWARP_CUT
+#ifdef RAYWARP_MOVES_NOTHING
 float alpha_at(vec3 p_def) { return texture(u_alpha, (p_def - u_alpha_origin) / u_alpha_size).r; }
+#else
+float alpha_at(vec3 p_def) {
+  return texture(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size).r;
+}
+#endif
 #endif
 
 // One sample of the ray: f at the preimage (valid: the preimage lies in the box) and A.
@@ -137,7 +148,16 @@ Sample sample_at(vec3 p_def, bool beyond_ok) {
   vec3 p = p_def + d.xyz;
   vec3 past = abs(p_def) - u_half_extents + u_def_spacing;
   bool near_face = max(max(past.x, past.y), past.z) > 0.0;
-  s.valid = in_box(p) && (d.w >= 0.5 || (beyond_ok && near_face && length(d.xyz) < u_seam));
+  bool identity = length(d.xyz) < u_seam;
+#ifdef RAYWARP_TEXTURE_MAP
+  // Read through M, a texel beyond the box that holds the identity (w = 0 as baked: its
+  // preimage, itself, lay outside the box) is the identity here too, and the box decides (a
+  // peel's translation reads past the box's -a face; library/texture_map.h).
+  bool mapped_out = identity && !in_box(texture_point(p_def));
+#else
+  bool mapped_out = false;
+#endif
+  s.valid = in_box(p) && (d.w >= 0.5 || mapped_out || (beyond_ok && near_face && identity));
   s.f = s.valid ? distance_at(p) : -u_background;
 #endif
 #ifdef RAYWARP_CUT

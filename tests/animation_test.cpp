@@ -10,6 +10,7 @@
 
 #include "base/error.h"
 #include "cli/animate.h"
+#include "cli/pipeline.h"
 #include "deformers/twist.h"
 #include "library/image.h"
 #include "library/mesh.h"
@@ -18,6 +19,7 @@
 
 using namespace raywarp;
 namespace fs = std::filesystem;
+using nlohmann::json;
 
 namespace {
 
@@ -126,6 +128,80 @@ TEST(Animation, OtherParametersRebakeThroughTheCache) {
       << log.str();
   EXPECT_TRUE(fs::exists(dir / "rebake.gif"));
   EXPECT_FALSE(fs::exists(dir / "rebake_0000.png"));
+}
+
+// The peel of examples/bunny_peel.json progressing (its hinge from the box's +a end to the
+// example's): one bake at the lowest hinge, each frame read through a translation M. Each checked
+// frame against the peel baked at that frame's own hinge, ray cast by the CPU reference in double
+// (independent of M and of GL), and the mapped frame's own CPU reference against GL.
+TEST(Animation, PeelHingeBakesOnceAndMatchesEachFramesOwnBake) {
+  const fs::path dir = temp_dir("peel");
+  std::string text;
+  {
+    std::ifstream in(kRoot + "/examples/bunny_peel.json");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  for (const char* key : {"meshes/", "cameras/"}) {
+    const size_t at = text.find(std::string("\"") + key);
+    ASSERT_NE(at, std::string::npos);
+    text.insert(at + 1, kRoot + "/examples/");
+  }
+  AnimationOptions opt;
+  opt.scene = dir / "peel.json";
+  std::ofstream(opt.scene) << text;
+  opt.params = {parse_animated_param("boxes[0].deformer.hinge=1.8:-1.7")};
+  opt.frames = 60;
+  opt.context = "osmesa";
+  opt.output = dir / "peel.png";
+  opt.write_frames = false;
+  opt.width = opt.height = 128;
+  std::ostringstream log;
+  AnimationResult r = animate(opt, log);
+  EXPECT_TRUE(r.mapped) << log.str();
+  EXPECT_EQ(r.bakes, 1) << log.str();
+  EXPECT_NE(log.str().find("a translation along the peel direction"), std::string::npos)
+      << log.str();
+  ASSERT_EQ(r.images.size(), 60u);
+
+  const json document = read_scene_document(opt.scene);
+  const Camera camera = *load_scene(opt.scene).camera;
+  for (int f : {0, 17, 35, 52}) {
+    const json doc = document_at(document, opt.params, f, opt.frames, opt.scene);
+    const Scene scene = load_scene_json(doc, opt.scene);
+    std::ostringstream bake_log;
+    const PreparedScene own = prepare_scene(scene, bake_log);
+    const Image cpu = reference_render(own.mesh(), own.textures(), camera, 128, 128, scene.render);
+    const double diagonal = mesh_bounds(own.mesh()).diagonal().norm();
+    const ImageComparison c = compare_images(r.images[f], cpu, 0.01 * diagonal);
+    std::printf(
+        "[figures] mapped peel frame %d (hinge %.3f): against its own bake (CPU reference) IoU "
+        "%.4f, over 1%% of diag %.2f%%\n",
+        f, scene.boxes[0].deformer.hinge, c.iou, 100 * c.fraction_over);
+    EXPECT_GE(c.iou, 0.98) << "frame " << f;
+    EXPECT_LE(c.fraction_over, 0.02) << "frame " << f;
+    // The flap is a small part of the image: the pixels whose colour differs (by more than
+    // 48/255 in a channel) from its own bake must be few, and far fewer than those from the
+    // fully peeled last frame (which a wrong M would show).
+    auto differing = [](const Image& a, const Image& b) {
+      long n = 0;
+      for (size_t i = 0; i < a.rgba.size(); i += 4)
+        for (int k = 0; k < 3; ++k)
+          if (std::abs(int(a.rgba[i + k]) - int(b.rgba[i + k])) > 48) {
+            ++n;
+            break;
+          }
+      return n;
+    };
+    const long own_diff = differing(r.images[f], cpu), last_diff = differing(r.images[59], cpu);
+    std::printf(
+        "[figures] mapped peel frame %d: %ld pixels differ from its own bake, %ld from the "
+        "last frame\n",
+        f, own_diff, last_diff);
+    EXPECT_LE(own_diff, 128 * 128 / 200) << "frame " << f;
+    if (f < 52) EXPECT_LT(4 * own_diff, last_diff) << "frame " << f;
+  }
 }
 
 TEST(Animation, BadParametersFailBeforeAnyFrame) {

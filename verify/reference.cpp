@@ -42,10 +42,19 @@ struct Sample {
   bool valid = false;
 };
 
-// D and w at p', read at M p' (BoxTextures::texture_map), as the shader's deformation().
+// Where the textures are read: M p' (BoxTextures::texture_map), as the shader's texture_point().
+Vec3 texture_point(const BoxTextures& box, const Vec3& p_def) {
+  return (box.texture_map * p_def.homogeneous()).head<3>();
+}
+
+// D and w at p', read at M p', as the shader's deformation().
 Eigen::Vector4d deformation_at(const BoxTextures& box, const Vec3& p_def) {
-  const Eigen::Vector4d q = box.texture_map * p_def.homogeneous();
-  return box.deformation.grid.sample(q.head<3>());
+  return box.deformation.grid.sample(texture_point(box, p_def));
+}
+
+// A at p', read at M p', as the shader's alpha_at().
+double alpha_at(const BoxTextures& box, const Vec3& p_def) {
+  return box.alpha.grid.sample(box.moves_nothing ? p_def : texture_point(box, p_def)).value();
 }
 
 // `beyond_ok`: the previous sample lay in the box. Then, where D is the identity (|D| below the
@@ -63,12 +72,15 @@ Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
     Vec3 p = p_def + dv.head<3>();
     const Vec3& h = box.box.half_extents;
     const bool near_face = (p_def.cwiseAbs() - h + box.deformation.grid.spacing).maxCoeff() > 0.0;
+    const bool identity = dv.head<3>().norm() < kSeamVoxels * implicit_spacing(box);
+    // Read through M, a texel beyond the box holding the identity is the identity here too.
+    const bool mapped_out = !box.texture_map.isIdentity(0.0) && identity &&
+                            !box.box.contains_local(texture_point(box, p_def));
     s.valid = box.box.contains_local(p) &&
-              (dv.w() >= 0.5 || (beyond_ok && near_face &&
-                                 dv.head<3>().norm() < kSeamVoxels * implicit_spacing(box)));
+              (dv.w() >= 0.5 || mapped_out || (beyond_ok && near_face && identity));
     s.f = s.valid ? implicit_value(box, p) : -implicit_background(box);
   }
-  if (box.has_cut) s.a = box.alpha.grid.sample(p_def).value();
+  if (box.has_cut) s.a = alpha_at(box, p_def);
   return s;
 }
 
@@ -183,8 +195,8 @@ Vec3 alpha_gradient(const BoxTextures& box, const Vec3& p_def) {
   const Vec3& h = box.alpha.grid.spacing;
   Vec3 g;
   for (int a = 0; a < 3; ++a)
-    g[a] = (box.alpha.grid.sample(p_def + h[a] * Vec3::Unit(a)).value() -
-            box.alpha.grid.sample(p_def - h[a] * Vec3::Unit(a)).value()) /
+    g[a] = (alpha_at(box, p_def + h[a] * Vec3::Unit(a)) -
+            alpha_at(box, p_def - h[a] * Vec3::Unit(a))) /
            (2.0 * h[a]);
   return g;
 }
@@ -515,7 +527,7 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
           double mid = 0.5 * (l + r);
           ((at(mid, true).f > 0.0) == inside ? l : r) = mid;
         }
-        if (box.alpha.grid.sample(o + 0.5 * (l + r) * d).value() <= 0.0) {
+        if (alpha_at(box, o + 0.5 * (l + r) * d) <= 0.0) {
           hit = true;
           front = !inside;
           lo = l;
