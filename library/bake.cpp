@@ -286,8 +286,13 @@ std::vector<char> save_fit(const FitRecord& f) {
 bool load_fit(const std::vector<char>& bytes, FitRecord& f) {
   CacheReader r(bytes);
   FitRecord out;
+  // At most the samples of the finest lattice (from_mesh_fitted checks the count).
+  constexpr long kMaxSamples = long(kFromMeshMaxResolution + 1) * (kFromMeshMaxResolution + 1) *
+                               (kFromMeshMaxResolution + 1);
   const long n = r.integer();
-  if (!r.ok() || n < 0 || n > kMaxSimulationNodes) return false;
+  if (!r.ok() || n < 0 || n > kMaxSamples ||
+      static_cast<std::size_t>(n) * 3 * sizeof(double) > bytes.size())
+    return false;
   out.positions.resize(static_cast<size_t>(n));
   for (Eigen::Vector3d& p : out.positions)
     for (int i = 0; i < 3; ++i) p[i] = r.number();
