@@ -553,17 +553,13 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
     const DeformerSpec& d = scene.boxes[i].deformer;
     std::error_code ec;
     if (d.type != "from_mesh" || !std::filesystem::is_directory(d.target, ec)) continue;
-    const std::string at = path.string() + ": boxes[" + std::to_string(i) + "].deformer.";
-    std::vector<std::string> files;
     try {
-      files = sequence_files(d.target);
+      deformed_copy_files(d.target, d.frame);
     } catch (const Error& e) {
-      throw Error(at + "target: " + e.what());
+      const std::string what = e.what();
+      throw Error(path.string() + ": boxes[" + std::to_string(i) + "].deformer." +
+                  (what.rfind("frame", 0) == 0 ? "" : "target: ") + what);
     }
-    if (d.frame > static_cast<double>(files.size()) - 1.0)
-      throw Error(at + "frame = " + shortest_text(d.frame) + ": past the sequence's last frame, " +
-                  std::to_string(files.size() - 1) + " (" + std::to_string(files.size()) +
-                  " copies in " + d.target + ")");
   }
   if (scene.render.route == "tets")
     for (size_t i = 0; i < scene.boxes.size(); ++i)

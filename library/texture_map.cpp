@@ -4,7 +4,7 @@
 
 #include "base/error.h"
 #include "base/json_reader.h"
-#include "deformers/peel.h"
+#include "deformers/registry.h"
 #include "deformers/twist.h"
 
 namespace raywarp {
@@ -49,9 +49,7 @@ TextureMapping peel_hinge_mapping(const BoxSpec& spec, const BoxTextures& baked,
   out.map(a, 3) = -shift;
   // The rays' region: the new peel's deformed box; a translation leaves |I + J_D| as it is.
   const double texel = baked.deformation.grid.voxel();
-  const auto peel = make_peel(spec.box.half_extents, static_cast<Axis>(d.axis),
-                              Face{static_cast<Axis>(d.from_axis), d.from_side}, d.angle_deg,
-                              d.thickness, d.radius, d.hinge);
+  const auto peel = make_deformer(d, spec.box.half_extents);
   out.region = deformed_bounds(*peel, spec.box.half_extents, texel);
   out.lipschitz = baked.lipschitz;
   return out;

@@ -104,7 +104,6 @@ float distance_at(vec3 p) {
 float distance_at(vec3 p) { return texture(u_sdf, (p - u_sdf_origin) / u_sdf_size).r; }
 #endif
 bool in_box(vec3 p) { return all(lessThanEqual(abs(p), u_half_extents)); }
-#ifndef RAYWARP_MOVES_NOTHING
 // Where the textures are read: M p' (eq. 2's mapping), or p'.
 vec3 texture_point(vec3 p_def) {
 #ifdef RAYWARP_TEXTURE_MAP
@@ -113,18 +112,15 @@ vec3 texture_point(vec3 p_def) {
   return p_def;
 #endif
 }
+#ifndef RAYWARP_MOVES_NOTHING
 vec4 deformation(vec3 p_def) {
   return texture(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size);
 }
 #endif
 #ifdef RAYWARP_CUT
-#ifdef RAYWARP_MOVES_NOTHING
-float alpha_at(vec3 p_def) { return texture(u_alpha, (p_def - u_alpha_origin) / u_alpha_size).r; }
-#else
 float alpha_at(vec3 p_def) {
   return texture(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size).r;
 }
-#endif
 #endif
 
 // One sample of the ray: f at the preimage (valid: the preimage lies in the box) and A.
