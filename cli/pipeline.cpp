@@ -128,6 +128,18 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << " valid texels: max " << fmt("%.3g", res.max) << ", mean " << fmt("%.3g", res.mean)
         << " units; " << res.over_tolerance << " over " << fmt("%.3g", res.tolerance) << " ("
         << fmt("%g", kResidualVoxels) << " voxel)\n";
+    if (r.added_detail) {
+      // The residual above is then the cost of adding the detail's inverse displacement to the
+      // list's instead of composing them (deformers/composed.h).
+      const AddedDetailFigures& a = *r.added_detail;
+      const double diag = a.box_diagonal > 0 ? a.box_diagonal : 1.0;
+      log << tag << "detail added to D, not composed: the inverse residual above ("
+          << fmt("%.2g", 100.0 * res.max / diag) << " % of the box diagonal at most, "
+          << fmt("%.2g", 100.0 * res.mean / diag)
+          << " % on average) is its cost; |D - D_exact| max " << fmt("%.3g", a.difference_max)
+          << ", mean " << fmt("%.3g", a.difference_mean)
+          << " units (D_exact: the exact composed inverse)\n";
+    }
     log << tag << "deformation texture error at cell centres: " << fmt("%.3g", r.texture_error)
         << " units (" << fmt("%.2g", r.texture_error_voxels()) << " voxels)\n";
   }

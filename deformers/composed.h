@@ -17,6 +17,20 @@
 // Cuts (peel, incision, box_cut) do not compose: their alpha map is a distance field in the
 // frame of their own deformed box, which a later deformer would distort. make_composed rejects
 // them, and a list of one deformer is that deformer itself.
+//
+// Added detail (Correa & Silver 2007, section 4: "deformation textures can be added to add
+// detail"). Detail deformers (deformers/detail.h) at the end of a list, F_d1 ... F_dm after the
+// rest R = F_k o ... o F_1 (possibly none), are added, not composed: the baked texture is the sum
+// of the inverse displacements,
+//   D(p') = D_R(p') + sum_j D_dj(p'),   D_R(p') = R^-1(p') - p',  D_dj(p') = F_dj^-1(p') - p',
+// while the list means the composition F = F_dm o ... o F_d1 o R (detail applied after the
+// rest). make_composed then returns an AddedDetail whose forward() and jacobian() are that exact
+// composition and whose inverse() is the sum p' + D(p'), so that measure_inverse_residual's
+// |F(p' + D(p')) - p'| measures what adding instead of composing costs; exact_inverse() is the
+// exact composed inverse R^-1(F_d1^-1(... F_dm^-1(p'))). To first order the two differ by
+// (dR^-1/dp' - I) D_d: a twist by 90 degrees turns the detail's displacement by up to 90
+// degrees at its upper face, so the residual is of the order of the detail itself there (and 0
+// where R is a translation). A detail entry before a deformer that is not one is refused.
 #pragma once
 #include <memory>
 #include <vector>
@@ -25,8 +39,19 @@
 
 namespace raywarp {
 
-// Throws raywarp::Error when `parts` is empty or holds a null pointer or a cut deformer (naming
-// its index, "[1]", and what it is).
+// The deformer of a list that ends in detail entries (above). inverse() is the sum of the inverse
+// displacements, an approximation: F(inverse(p')) != p' in general.
+class AddedDetail : public Deformer {
+ public:
+  // F^-1 exactly, the composed inverse.
+  virtual Eigen::Vector3d exact_inverse(const Eigen::Vector3d& p_def) const = 0;
+  // The parts before the detail (the rest R, maybe none) and the detail entries.
+  virtual size_t rest_count() const = 0;
+  virtual size_t detail_count() const = 0;
+};
+
+// Throws raywarp::Error when `parts` is empty or holds a null pointer or a cut deformer, or a
+// detail before a deformer that is not one (naming its index, "[1]", and what it is).
 std::unique_ptr<Deformer> make_composed(std::vector<std::shared_ptr<const Deformer>> parts);
 
 }  // namespace raywarp

@@ -11,6 +11,7 @@
 #include "deformers/bend.h"
 #include "deformers/box_cut.h"
 #include "deformers/control_points.h"
+#include "deformers/detail.h"
 #include "deformers/from_mesh.h"
 #include "deformers/incision.h"
 #include "deformers/peel.h"
@@ -272,6 +273,40 @@ std::vector<DeformerType> make_registry() {
       return make_stretch(h, static_cast<Axis>(d.axis), d.factor);
     };
     t.examples = {{{"axis", "y"}, {"factor", 0.5}}, {{"axis", "x"}, {"factor", -0.3}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "detail";
+    t.summary =
+        "a seeded vector noise displacement of at most `scale`, windowed to 0 on the box faces; "
+        "in a list it comes last and is added to the list's inverse displacement, as Correa & "
+        "Silver add textures for detail (section 4)";
+    t.params = {
+        number_param("scale", &DeformerSpec::scale, {0.0, kMaxCoordinate, false, false, true},
+                     "object units",
+                     "the largest displacement; at most 1/2 over the noise's Lipschitz bound, so "
+                     "that it never folds (the error gives the limit)",
+                     "give the detail's displacement in object units, e.g. 0.1"),
+        number_param("wavelength", &DeformerSpec::wavelength,
+                     {0.0, kMaxCoordinate, false, false, true}, "object units",
+                     "the noise's mean wavelength, also the width of the window's falloff at the "
+                     "faces; 0 = a quarter of the box's shortest side",
+                     "", "0"),
+        number_param("seed", &DeformerSpec::seed, closed(0, 4294967295.0), "",
+                     "picks the noise: a whole number", "", "1")};
+    t.check = [](const JsonReader& r, const json& j, const std::string& field,
+                 const DeformerSpec& d) {
+      if (d.seed != std::floor(d.seed))
+        r.fail(child(field, "seed"), j["seed"], "must be a whole number in [0, 4294967295]");
+    };
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      const double wavelength = d.wavelength > 0.0 ? d.wavelength : 0.5 * h.minCoeff();
+      return make_detail(h, d.scale, wavelength, static_cast<std::uint64_t>(d.seed));
+    };
+    t.examples = {{{"scale", 0.02}, {"wavelength", 0.5}, {"seed", 7}},
+                  {{"scale", 0.03}},
+                  {{"scale", 0.015}, {"wavelength", 0.3}, {"seed", 4294967295.0}}};
     types.push_back(std::move(t));
   }
   {

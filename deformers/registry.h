@@ -47,6 +47,9 @@ struct DeformerSpec {
                          // curl axis; incision: the normal of the cut plane)
   double angle_deg = 0;  // twist: any; bend: (-360, 360); peel: (0, 180]
   double factor = 0;     // taper, stretch: Blender's factor
+  // detail: the noise's displacement bound and wavelength (0: a quarter of the box's shortest
+  // side), object units, and its seed (a whole number).
+  double scale = 0, wavelength = 0, seed = 1;
   // peel and incision: the face the cut enters through, e.g. "+y" (axis, side).
   int from_axis = 1;
   int from_side = 1;

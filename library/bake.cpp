@@ -119,6 +119,7 @@ struct DeformationRecord {
   ResolutionChoice choice;
   FoldReport folds;
   InverseResidual residual;
+  AddedDetailFigures added_detail;  // texels > 0: measured (a list that adds detail)
 };
 
 std::vector<char> save_deformation(const DeformationRecord& d) {
@@ -136,6 +137,10 @@ std::vector<char> save_deformation(const DeformationRecord& d) {
   w.integer(d.residual.over_tolerance);
   w.number(d.residual.tolerance);
   w.integer(d.residual.folded);
+  w.number(d.added_detail.difference_max);
+  w.number(d.added_detail.difference_mean);
+  w.integer(d.added_detail.texels);
+  w.number(d.added_detail.box_diagonal);
   return w.bytes();
 }
 
@@ -155,6 +160,10 @@ bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
   out.residual.over_tolerance = r.integer();
   out.residual.tolerance = r.number();
   out.residual.folded = r.integer();
+  out.added_detail.difference_max = r.number();
+  out.added_detail.difference_mean = r.number();
+  out.added_detail.texels = r.integer();
+  out.added_detail.box_diagonal = r.number();
   if (!r.ok() || !r.at_end()) return false;
   d = std::move(out);
   return true;
@@ -950,6 +959,9 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
         if (!tex.moves_nothing) {
           r.lipschitz = displacement_lipschitz(d, r.texture, interrupter);
           r.residual = measure_inverse_residual(d, r.texture, kResidualVoxels * voxel, interrupter);
+          if (const auto* added = dynamic_cast<const AddedDetail*>(&d))
+            r.added_detail =
+                measure_added_detail(*added, spec.box.half_extents, r.texture, interrupter);
         }
         r.folds = measure_folds(d, spec.box.half_extents, 64, interrupter);
         return r;
@@ -1020,7 +1032,9 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     report.deformation_choice = record.choice;
     report.residual = record.residual;
     const InverseResidual& res = record.residual;
-    if (res.over_tolerance > 0) {
+    const bool added_detail = dynamic_cast<const AddedDetail*>(out.deformer.get()) != nullptr;
+    if (added_detail) report.added_detail = record.added_detail;
+    if (res.over_tolerance > 0 && !added_detail) {
       std::string w = "the deformation texture does not invert the deformation at " +
                       std::to_string(res.over_tolerance) + " of " + std::to_string(res.texels) +
                       " texels (residual up to " + fmt("%.3g", res.max) + " units, over " +

@@ -26,6 +26,7 @@
 #include "base/interrupt.h"
 #include "deformers/deformer.h"
 #include "deformers/simulation.h"
+#include "library/added_detail.h"
 #include "library/bake_cache.h"
 #include "library/deformation_bake.h"
 #include "library/implicit.h"
@@ -125,6 +126,10 @@ struct BakeReport {
   double alpha_error = 0.0;
   ResolutionChoice alpha_choice;
   InverseResidual residual;  // measure_inverse_residual at kResidualVoxels voxels
+  // A list that adds detail (deformers/composed.h): `residual` is then what adding the inverse
+  // displacements instead of composing costs (no inverse_residual warning), and this holds
+  // |D - D_exact| (library/added_detail.h).
+  std::optional<AddedDetailFigures> added_detail;
   FoldReport folds;
   // Step bounds (stage StepBounds): the ranges of the per-brick bounds.
   int brick_cells = 0;
