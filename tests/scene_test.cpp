@@ -602,11 +602,11 @@ std::vector<BadCase> bad_cases() {
       {"DeformerTypeUnknown",
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "twsit"; }); },
        {": boxes[0].deformer.type = \"twsit\": must be one of twist, bend, taper, stretch, "
-        "peel, incision, box_cut"}},
+        "detail, peel, incision, box_cut"}},
       {"DeformerTypePoints",
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "points"; }); },
        {": boxes[0].deformer.type = \"points\": must be one of twist, bend, taper, stretch, "
-        "peel, incision, box_cut, control_points"}},
+        "detail, peel, incision, box_cut, control_points"}},
       {"DeformerListEmpty",
        [] { return edit([](json& j) { box0(j)["deformer"] = json::array(); }); },
        {": boxes[0].deformer = []: must be one deformer object or a list of 1 to 8 deformers"}},
