@@ -13,6 +13,7 @@
 #include "deformers/control_points.h"
 #include "deformers/detail.h"
 #include "deformers/from_mesh.h"
+#include "deformers/groove.h"
 #include "deformers/incision.h"
 #include "deformers/peel.h"
 #include "deformers/stretch.h"
@@ -417,6 +418,28 @@ std::vector<DeformerType> make_registry() {
                   {{"sub_min", {0, 0.3, 0}},
                    {"sub_max", {1, 1, 0.8}},
                    {"wedge", {{"axis", "y"}, {"from_deg", 10}, {"angle_deg", 90}}}}};
+    types.push_back(std::move(t));
+  }
+  {
+    DeformerType t;
+    t.name = "groove";
+    t.summary =
+        "a round cut: removes the ring farther than radius from an axis through the centre, "
+        "within a slab of width about the centre; moves nothing";
+    t.cuts = true;
+    t.params = {axis_param("the groove's axis", "give the groove's axis, one of x, y, z"),
+                number_param("radius", &DeformerSpec::radius, kPositive, "object units",
+                             "the groove's inner radius: what lies farther from the axis goes",
+                             "give the groove's inner radius in object units"),
+                // The slab's width along the axis, held in the spec's `opening`.
+                number_param("width", &DeformerSpec::opening, kPositive, "object units",
+                             "the groove's width along the axis, up to 2 h of that axis",
+                             "give the groove's width in object units")};
+    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+      return make_groove(h, static_cast<Axis>(d.axis), d.radius, d.opening);
+    };
+    t.examples = {{{"axis", "y"}, {"radius", 0.6}, {"width", 0.5}},
+                  {{"axis", "x"}, {"radius", 0.8}, {"width", 1.2}}};
     types.push_back(std::move(t));
   }
   {

@@ -606,7 +606,7 @@ std::vector<BadCase> bad_cases() {
       {"DeformerTypePoints",
        [] { return edit([](json& j) { box0(j)["deformer"]["type"] = "points"; }); },
        {": boxes[0].deformer.type = \"points\": must be one of twist, bend, taper, stretch, "
-        "detail, peel, incision, box_cut, control_points"}},
+        "detail, peel, incision, box_cut, groove, control_points"}},
       {"DeformerListEmpty",
        [] { return edit([](json& j) { box0(j)["deformer"] = json::array(); }); },
        {": boxes[0].deformer = []: must be one deformer object or a list of 1 to 8 deformers"}},
@@ -616,8 +616,8 @@ std::vector<BadCase> bad_cases() {
            box0(j)["deformer"] = json::array({box0(j)["deformer"], {{"type", "box_cut"}}});
          });
        },
-       {": boxes[0].deformer[1].type = \"box_cut\": a cut (peel, incision, box_cut) cannot be "
-        "composed"}},
+       {": boxes[0].deformer[1].type = \"box_cut\": a cut (peel, incision, box_cut, "
+        "groove) cannot be composed"}},
       {"ControlPointsEmpty",
        [] {
          return edit([](json& j) {
@@ -797,7 +797,7 @@ std::vector<BadCase> bad_cases() {
       {"CutModeOnTwist",
        [] { return edit([](json& j) { box0(j)["cut_mode"] = "solid"; }); },
        {": boxes[0].cut_mode = \"solid\": cut_mode applies to cut deformers (peel, incision, "
-        "box_cut); boxes[0].deformer.type is twist"}},
+        "box_cut, groove); boxes[0].deformer.type is twist"}},
       {"ShellThicknessOnBend",
        [] {
          return edit([](json& j) {
@@ -806,13 +806,13 @@ std::vector<BadCase> bad_cases() {
          });
        },
        {": boxes[0].shell_thickness = 0.5: shell_thickness applies to cut deformers (peel, "
-        "incision, box_cut); boxes[0].deformer.type is bend"}},
+        "incision, box_cut, groove); boxes[0].deformer.type is bend"}},
       {"AlphaOnTwist",
        [] { return edit([](json& j) {
               box0(j)["alpha"] = {{"resolution", 32}};
             }); },
        {": boxes[0].alpha = {\"resolution\":32}: alpha applies to cut deformers (peel, incision, "
-        "box_cut); boxes[0].deformer.type is twist"}},
+        "box_cut, groove); boxes[0].deformer.type is twist"}},
       {"CutModeUnknown",
        [] {
          return edit([](json& j) {
