@@ -157,6 +157,10 @@ int mapped_box(const Scene& scene, const std::vector<AnimatedParam>& params, Map
     why = "the bounded tracer's step bounds hold for the texture as baked";
     return -1;
   }
+  if (scene.boxes[box].mapping.cylindrical) {
+    why = "the box's textures are cylindrical, read at p' and not through M";
+    return -1;
+  }
   if (angle) {
     if (p.from * p.to < 0.0) {
       why = "the angle changes sign (a twist is scaled about its fixed face, not mirrored)";

@@ -28,6 +28,7 @@ enum class Feature {
   MovesNothing,       // D = 0: no deformation texture (a box cut)
   TextureMap,         // D read at M p' (eq. 2's mapping)
   Skip,               // empty-space skipping
+  Cylindrical,        // D and A stored over (angle, radius, height) about an axis of the box
   kCount
 };
 inline constexpr size_t kFeatureCount = static_cast<size_t>(Feature::kCount);
@@ -52,6 +53,7 @@ inline constexpr FeatureInfo kFeatures[] = {
     {Feature::MovesNothing, "RAYWARP_MOVES_NOTHING", nullptr},
     {Feature::TextureMap, "RAYWARP_TEXTURE_MAP", nullptr},
     {Feature::Skip, "RAYWARP_SKIP", nullptr},
+    {Feature::Cylindrical, "RAYWARP_CYLINDRICAL", nullptr},
 };
 static_assert(std::size(kFeatures) == kFeatureCount, "one kFeatures row per Feature");
 constexpr bool features_in_order() {

@@ -162,10 +162,14 @@ bool uses_bounded(const BoxTextures& b, const RenderSettings& settings) {
 Variant raycast_variant(const BoxTextures& b, const RenderSettings& settings) {
   Variant v;
   if (b.has_cut) v.add(Feature::Cut).add(cut_feature(b.cut_mode));
+  if (b.cylindrical() && !b.texture_map.isIdentity(0.0))
+    throw Error(
+        "a cylindrical texture is read at p', not through a texture map M; re-bake instead");
   if (b.moves_nothing)
     v.add(Feature::MovesNothing);
   else if (!b.texture_map.isIdentity(0.0))
     v.add(Feature::TextureMap);
+  if (b.cylindrical()) v.add(Feature::Cylindrical);
   const bool bounded = uses_bounded(b, settings);
   if (!bounded && skipping_pays(b, settings.step_voxels, settings.skipping)) v.add(Feature::Skip);
   v.add(bounded ? Feature::SamplingBounded : sampling_feature(settings.sampling));
@@ -368,6 +372,7 @@ void Renderer::set_boxes(const std::vector<const BoxTextures*>& boxes) {
     d.moves_nothing = b.moves_nothing;
     d.lipschitz = b.lipschitz;
     d.texture_map = b.texture_map;
+    d.cylindrical_axis = b.cylindrical_axis;
     d.has_cut = b.has_cut;
     d.cut_mode = b.cut_mode;
     d.shell_thickness = b.shell_thickness;
@@ -396,6 +401,8 @@ void Renderer::set_boxes(const std::vector<const BoxTextures*>& boxes) {
       gpu.texture(TextureUnit::Deformation) =
           upload_3d(b.half_precision ? GL_RGBA16F : GL_RGBA32F, GL_RGBA, b.deformation.grid.dims,
                     reinterpret_cast<const float*>(b.deformation.grid.data.data()));
+      if (b.cylindrical())  // the angle is periodic
+        glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_WRAP_S, GL_REPEAT);
       gpu.bytes += b.deformation.grid.size() * 4 * channel_bytes;
     }
     if (b.has_cut) {
@@ -403,6 +410,7 @@ void Renderer::set_boxes(const std::vector<const BoxTextures*>& boxes) {
       copy_mapping(d.alpha.grid, b.alpha.grid);
       gpu.texture(TextureUnit::Alpha) =
           upload_3d(r_format, GL_RED, b.alpha.grid.dims, b.alpha.grid.data.data());
+      if (b.cylindrical()) glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_WRAP_S, GL_REPEAT);
       gpu.bytes += b.alpha.grid.size() * channel_bytes;
     }
     if (!b.step_bounds.empty()) {
@@ -532,11 +540,19 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.f1("u_background", implicit_background(b.data));
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
-    rc.vec3("u_def_spacing", def.spacing);
+    rc.vec3("u_def_spacing", deformation_step(b.data));
     rc.mat4("u_texture_map", b.data.texture_map);
     rc.vec3("u_alpha_origin", alpha.origin);
     rc.vec3("u_alpha_size", alpha.extent());
-    rc.vec3("u_alpha_spacing", alpha.spacing);
+    rc.vec3("u_alpha_spacing", alpha_step(b.data));
+    if (variant.has(Feature::Cylindrical)) {
+      const int a = b.data.cylindrical_axis;
+      Eigen::Matrix3d frame;
+      frame.row(0) = Eigen::Vector3d::Unit((a + 1) % 3);
+      frame.row(1) = Eigen::Vector3d::Unit((a + 2) % 3);
+      frame.row(2) = Eigen::Vector3d::Unit(a);
+      rc.mat3("u_cyl_frame", frame);
+    }
     rc.f1("u_thickness", b.data.shell_thickness);
     rc.f1("u_lipschitz", b.data.lipschitz);
     rc.f1("u_cut_margin", cut_margin(b.data));

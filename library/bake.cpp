@@ -10,6 +10,7 @@
 #include "base/json_reader.h"
 #include "deformers/composed.h"
 #include "deformers/registry.h"
+#include "library/cylindrical.h"
 #include "library/depth_cube.h"
 #include "library/implicit.h"
 #include "library/mesh_pairs.h"
@@ -927,6 +928,28 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   const double target = kAutoErrorVoxels * voxel;
   const auto budget = static_cast<std::uint64_t>(spec.deformation_max_mib * double(1 << 20));
   const bool centred = job.centre_on_lower_faces && !tex.moves_nothing;
+  // A cylindrical texture (library/cylindrical.h) covers the deformed box grown by two voxels.
+  const MappingSpec& mapping = spec.mapping;
+  const bool cylindrical_d = mapping.cylindrical && !tex.moves_nothing;
+  if (mapping.cylindrical && job.centre_on_lower_faces)
+    throw Error(job.where +
+                ".mapping: a cylindrical texture is not read through a texture map M "
+                "(the animation re-bakes every frame instead)");
+  const Eigen::AlignedBox3d cylinder_region = [&] {
+    Eigen::AlignedBox3d r = deformed_bounds(*out.deformer, spec.box.half_extents, 2.0 * voxel);
+    if (tex.moves_nothing)
+      r.extend(Eigen::AlignedBox3d(
+          -spec.box.half_extents - Eigen::Vector3d::Constant(kCapVoxels * voxel),
+          spec.box.half_extents + Eigen::Vector3d::Constant(kCapVoxels * voxel)));
+    return r;
+  }();
+  const CylindricalDomain domain = cylindrical_domain(cylinder_region, mapping.axis);
+  Key mapping_key;
+  if (mapping.cylindrical)
+    mapping_key << "cylindrical about" << mapping.axis << "angle texels" << mapping.angle_texels
+                << "floor" << kAutoCylindricalFloor[0] << kAutoCylindricalFloor[1]
+                << kAutoCylindricalFloor[2] << "domain" << domain.radius << domain.low
+                << domain.high;
   Key layout;
   if (automatic)
     layout << "auto, error" << target << "budget" << double(budget) << "floor"
@@ -937,7 +960,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       (Key() << "deformation\n"
              << deformer_key(spec) << simulation_key << "\nresolution" << layout.str()
              << (job.centre_on_lower_faces ? "centred on the lower faces" : "")
-             << "residual tolerance" << kResidualVoxels * voxel)
+             << "residual tolerance" << kResidualVoxels * voxel
+             << (cylindrical_d ? mapping_key.str() : std::string()))
           .str();
   DeformationRecord record;
   const Source def_source = stage(
@@ -945,6 +969,29 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       [&] {
         DeformationRecord r;
         const Deformer& d = *out.deformer;
+        const Eigen::Vector3d& h = spec.box.half_extents;
+        if (cylindrical_d) {
+          const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
+                                      kAutoCylindricalFloor[2]);
+          if (automatic) {
+            AutoDeformation a = bake_cylindrical_deformation_auto(
+                d, h, mapping.axis, domain, target, budget, floor, interrupter);
+            r.texture = std::move(a.texture);
+            r.texture_error = a.error;
+            r.choice = a.choice;
+          } else {
+            const Eigen::Vector3i counts(mapping.angle_texels, resolution, resolution);
+            r.texture = bake_cylindrical_deformation(d, mapping.axis, domain, counts, interrupter);
+            r.texture_error =
+                cylindrical_deformation_error(d, h, r.texture, mapping.axis, interrupter);
+          }
+          // No Lipschitz bound is measured: cylindrical textures never skip (skipping_pays).
+          r.lipschitz = std::numeric_limits<double>::infinity();
+          r.residual = measure_cylindrical_residual(d, h, r.texture, mapping.axis,
+                                                    kResidualVoxels * voxel, interrupter);
+          r.folds = measure_folds(d, h, 64, interrupter);
+          return r;
+        }
         if (automatic) {
           AutoDeformation a = bake_deformation_auto(d, spec.box.half_extents, target, budget,
                                                     kAutoFloorResolution, centred, interrupter);
@@ -977,10 +1024,14 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       tex.region =
           tex.region.intersection(Eigen::AlignedBox3d(tex.sdf.grid.origin, tex.sdf.grid.upper()));
     tex.lipschitz = 1.0;
+  } else if (cylindrical_d) {
+    tex.region = cylinder_region;
+    tex.lipschitz = record.lipschitz;
   } else {
     tex.region = Eigen::AlignedBox3d(tex.deformation.grid.origin, tex.deformation.grid.upper());
     tex.lipschitz = record.lipschitz;
   }
+  if (mapping.cylindrical) tex.cylindrical_axis = mapping.axis;
   report.lipschitz = tex.lipschitz;
 
   if (out.deformer->has_cut()) {
@@ -1000,13 +1051,32 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
         (Key() << "alpha\n"
                << deformer_key(spec) << "\nregion" << tex.region.min().x() << tex.region.min().y()
                << tex.region.min().z() << tex.region.max().x() << tex.region.max().y()
-               << tex.region.max().z() << "\nresolution" << alpha_layout.str())
+               << tex.region.max().z() << "\nresolution" << alpha_layout.str() << mapping_key.str())
             .str();
     AlphaRecord alpha;
     const Source source = stage(
         alpha, "alpha", alpha_key, counters_.alpha,
         [&] {
           AlphaRecord r;
+          if (mapping.cylindrical) {
+            const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
+                                        kAutoCylindricalFloor[2]);
+            if (auto_alpha) {
+              AutoAlpha a = bake_cylindrical_alpha_auto(*out.deformer, mapping.axis, domain, target,
+                                                        band, alpha_budget, floor, interrupter);
+              r.map = std::move(a.map);
+              r.error = a.error;
+              r.choice = a.choice;
+            } else {
+              const Eigen::Vector3i counts(mapping.angle_texels, spec.alpha_resolution,
+                                           spec.alpha_resolution);
+              r.map =
+                  bake_cylindrical_alpha(*out.deformer, mapping.axis, domain, counts, interrupter);
+              r.error =
+                  cylindrical_alpha_error(*out.deformer, r.map, mapping.axis, band, interrupter);
+            }
+            return r;
+          }
           if (auto_alpha) {
             AutoAlpha a = bake_alpha_auto(*out.deformer, tex.region, target, band, alpha_budget,
                                           kAutoAlphaFloorResolution, interrupter);

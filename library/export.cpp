@@ -257,6 +257,11 @@ std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
   const BoxTextures& tex = baked.textures;
   if (tex.uses_depth_cube)
     throw Error("export needs the box's distance grid; this box uses a depth cube");
+  if (tex.cylindrical())
+    throw Error(
+        "export writes textures over the box's (x, y, z), which engines read as such; this box's "
+        "are cylindrical (mapping.type \"cylindrical\"): bake it with mapping \"cartesian\" to "
+        "export it");
   const Eigen::Vector3d h = tex.box.half_extents;
   const double voxel = implicit_spacing(tex);
   std::vector<ExportedTexture> out;

@@ -210,11 +210,37 @@ void read_cut_settings(const JsonReader& r, const json& j, const std::string& fi
     read_layout(r, j["alpha"], child(field, "alpha"), b.alpha_resolution, b.alpha_max_mib);
 }
 
+// "mapping": {"type": "cartesian" | "cylindrical", "axis": "y", "angle_texels": 16}.
+MappingSpec read_mapping(const JsonReader& r, const json& j, const std::string& field) {
+  r.require_object(j, field, "{\"type\": \"cylindrical\", \"axis\": \"y\"}");
+  r.check_keys(j, field, {"type", "axis", "angle_texels"});
+  MappingSpec m;
+  const std::string type =
+      r.one_of(r.required(j, field, "type", "give \"cartesian\" or \"cylindrical\""),
+               child(field, "type"), {"cartesian", "cylindrical"});
+  m.cylindrical = type == "cylindrical";
+  if (!m.cylindrical) {
+    for (const char* key : {"axis", "angle_texels"})
+      if (j.contains(key))
+        r.fail(
+            child(field, key), j[key],
+            "applies to \"type\": \"cylindrical\" only; " + child(field, "type") + " is cartesian");
+    return m;
+  }
+  const std::string axis =
+      r.one_of(r.required(j, field, "axis", "give the cylinder's axis, one of x, y, z"),
+               child(field, "axis"), {"x", "y", "z"});
+  m.axis = axis[0] - 'x';
+  if (j.contains("angle_texels"))
+    m.angle_texels = r.integer(j["angle_texels"], child(field, "angle_texels"), 2, 1024);
+  return m;
+}
+
 BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   r.require_object(j, field, "{\"min\": ..., \"max\": ..., \"deformer\": ...}");
   r.check_keys(j, field,
                {"min", "max", "centre", "center", "half_extents", "rotation_deg", "deformer",
-                "implicit", "deformation", "cut_mode", "shell_thickness", "alpha"});
+                "implicit", "deformation", "cut_mode", "shell_thickness", "alpha", "mapping"});
   BoxSpec b;
   b.box = read_box_geometry(r, j, field);
   read_deformers(r,
@@ -228,6 +254,7 @@ BoxSpec read_box(const JsonReader& r, const json& j, const std::string& field) {
   if (j.contains("deformation"))
     read_layout(r, j["deformation"], child(field, "deformation"), b.deformation_resolution,
                 b.deformation_max_mib);
+  if (j.contains("mapping")) b.mapping = read_mapping(r, j["mapping"], child(field, "mapping"));
   return b;
 }
 
@@ -313,6 +340,8 @@ std::uint64_t deformation_bytes(const BoxSpec& b) {
   if (b.deformation_resolution == kAutoResolution)
     return static_cast<std::uint64_t>(b.deformation_max_mib * double(1 << 20));
   std::uint64_t d = b.deformation_resolution;
+  if (b.mapping.cylindrical)
+    return d * d * std::uint64_t(b.mapping.angle_texels) * 4 * sizeof(float);
   return d * d * d * 4 * sizeof(float);
 }
 
@@ -322,6 +351,7 @@ std::uint64_t alpha_bytes(const BoxSpec& b) {
   if (b.alpha_resolution == kAutoResolution)
     return static_cast<std::uint64_t>(b.alpha_max_mib * double(1 << 20));
   std::uint64_t a = b.alpha_resolution;
+  if (b.mapping.cylindrical) return a * a * std::uint64_t(b.mapping.angle_texels) * sizeof(float);
   return a * a * a * sizeof(float);
 }
 
@@ -545,6 +575,11 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
                     "].implicit.type is \"depth_cube\", whose |f| is no distance bound; bounded "
                     "tracing needs a distance grid (implicit.type \"sdf\"): use linear, threshold "
                     "or jacobian");
+      if (scene.boxes[i].mapping.cylindrical)
+        throw Error(path.string() + ": render.sampling = \"bounded\": boxes[" + std::to_string(i) +
+                    "].mapping.type is \"cylindrical\"; the bounded tracer's step bounds hold "
+                    "for Cartesian textures: use linear, threshold or jacobian, or mapping "
+                    "\"cartesian\"");
     }
   // A from_mesh folder target, a sequence: its frames listed now, so that a frame past the last
   // or an empty folder is said before anything is baked (a glTF's morph targets are counted when

@@ -51,6 +51,18 @@ constexpr double kAutoErrorVoxels = 0.5;
 constexpr int kAutoAlphaFloorResolution = 64;
 constexpr double kAlphaBandVoxels = 2.0;
 
+// How a box's deformation texture and alpha map are stored ("mapping"): over (x, y, z), or over
+// (angle, radius, height) about the box's axis `axis` through its centre (library/cylindrical.h).
+// With an explicit resolution n (deformation or alpha), a cylindrical texture has n texels along
+// the radius and along the height and `angle_texels` around; "auto" chooses all three counts
+// from the floor kAutoCylindricalFloor.
+struct MappingSpec {
+  bool cylindrical = false;
+  int axis = 1;           // 0 = x, 1 = y, 2 = z
+  int angle_texels = 16;  // [2, 1024]
+};
+constexpr int kAutoCylindricalFloor[3] = {8, 32, 32};  // angle, radius, height
+
 struct BoxSpec {
   Box box;
   // The box's deformers in the order they apply: `deformer` first, then each of `then` (the
@@ -74,6 +86,7 @@ struct BoxSpec {
   // alpha_max_mib (bake_alpha_auto).
   int alpha_resolution = kAutoResolution;
   double alpha_max_mib = 16;  // [1, 1024]
+  MappingSpec mapping;
 };
 
 // How the second image-space route shows a simulation box (render.route "tets"): the body's

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include "library/cylindrical.h"
+
 namespace raywarp {
 
 const char* cut_mode_name(CutMode mode) {
@@ -30,6 +32,12 @@ double implicit_background(const BoxTextures& b) {
 std::optional<Eigen::Vector3d> texture_preimage(const BoxTextures& b, const Eigen::Vector3d& p) {
   const Eigen::Vector3d q = b.box.to_local(p);
   if (b.moves_nothing) return b.box.contains_local(q) ? std::optional(p) : std::nullopt;
+  if (b.cylindrical()) {  // w = 1 wherever D holds a preimage; the box decides
+    const Eigen::Vector4d d = cylindrical_displacement(b.deformation.grid, b.cylindrical_axis, q);
+    const Eigen::Vector3d local = q + d.head<3>();
+    if (!(d[3] >= 0.5) || !d.allFinite() || !b.box.contains_local(local)) return std::nullopt;
+    return b.box.to_object(local);
+  }
   const Eigen::Vector3d m = (b.texture_map * q.homogeneous()).head<3>();
   const Grid3<Eigen::Vector4f>& g = b.deformation.grid;
   const bool mapped = !b.texture_map.isIdentity(0.0);
@@ -59,7 +67,22 @@ Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b) {
 double cut_margin(const BoxTextures& b) {
   if (!b.has_cut) return 0.0;
   // The diagonal of an alpha cell plus half that of a D cell.
-  return b.alpha.grid.spacing.norm() + 0.5 * b.deformation.grid.spacing.norm();
+  return alpha_step(b).norm() + 0.5 * deformation_step(b).norm();
+}
+
+namespace {
+Eigen::Vector3d difference_step(const Eigen::Vector3d& spacing, bool cylindrical) {
+  if (!cylindrical) return spacing;
+  return Eigen::Vector3d::Constant(std::min(spacing[1], spacing[2]));
+}
+}  // namespace
+
+Eigen::Vector3d deformation_step(const BoxTextures& b) {
+  return difference_step(b.deformation.grid.spacing, b.cylindrical() && !b.moves_nothing);
+}
+
+Eigen::Vector3d alpha_step(const BoxTextures& b) {
+  return difference_step(b.alpha.grid.spacing, b.cylindrical());
 }
 
 float round_to_half(float x) {
@@ -87,7 +110,7 @@ void round_textures_to_half(BoxTextures& b) {
 }
 
 bool skipping_pays(const BoxTextures& b, double step_voxels, bool requested) {
-  if (!requested) return false;
+  if (!requested || b.cylindrical()) return false;
   if (b.has_cut) return true;
   if (b.uses_depth_cube) return false;
   return b.sdf.background / (std::sqrt(3.0) * b.lipschitz) > step_voxels * b.sdf.grid.voxel();

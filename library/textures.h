@@ -130,6 +130,10 @@ struct BoxTextures {
   // with no re-bake (Fig. 4): a twist scaled along its axis about its fixed face is a twist of
   // a smaller angle. Not with the `bounded` tracer, whose step bounds are baked for M = I.
   Eigen::Matrix4d texture_map = Eigen::Matrix4d::Identity();
+  // >= 0: D and A are stored over (angle, radius, height) about this axis of the box frame
+  // through its centre (library/cylindrical.h); -1: over (x, y, z). Not with a texture map M.
+  int cylindrical_axis = -1;
+  bool cylindrical() const { return cylindrical_axis >= 0; }
   // Textures stored as 16-bit floats on the GPU (their values already rounded to half precision
   // by round_to_half, so the CPU reference reads what the GPU does).
   bool half_precision = false;
@@ -158,6 +162,13 @@ double implicit_background(const BoxTextures& b);
 // the undeformed mesh that shows at p'. None where the texture holds no preimage (outside its
 // grid, or w < 1/2); p' itself inside a box that moves nothing.
 std::optional<Eigen::Vector3d> texture_preimage(const BoxTextures& b, const Eigen::Vector3d& p);
+
+// The steps of the central differences of D and A (normals, the jacobian step, the cut face's
+// gradient), per axis of the box frame, and of the band by the box faces where sample_at lets a
+// falling w pass: D's and A's texel sides, or for cylindrical textures the shorter of their radius
+// and height sides on every axis (their angle's side is no length).
+Eigen::Vector3d deformation_step(const BoxTextures& b);
+Eigen::Vector3d alpha_step(const BoxTextures& b);
 
 // f at p (box frame): the distance grid sampled trilinearly, or depth_cube_value.
 double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p);

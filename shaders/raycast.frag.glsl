@@ -10,7 +10,10 @@
 // reads the distance grid, for the caps of a box cut); RAYWARP_SKIP (empty-space skipping);
 // RAYWARP_TEXTURE_MAP (D and A read at M p', eq. 2's mapping); RAYWARP_DEPTH_CUBE (the implicit is a
 // depth-map cube, library/depth_cube.h, not the distance grid: no skipping by f, whose |f| is no
-// distance bound). The samplers' units are kTextureUnits'.
+// distance bound); RAYWARP_CYLINDRICAL (D and A stored over (angle, radius, height) about an axis
+// of the box, library/cylindrical.h: D read as the preimage's cylindrical coordinates minus the
+// point's, the angle periodic; no texture map M, no skipping). The samplers' units are
+// kTextureUnits'.
 #if defined(RAYWARP_SAMPLING_LINEAR) + defined(RAYWARP_SAMPLING_THRESHOLD) + defined(RAYWARP_SAMPLING_JACOBIAN) + defined(RAYWARP_SAMPLING_BOUNDED) != 1
 #error a variant has exactly one RAYWARP_SAMPLING_* feature
 #endif
@@ -48,6 +51,9 @@ uniform vec3 u_def_spacing;       // texel sides per axis
 #endif
 #ifdef RAYWARP_TEXTURE_MAP
 uniform mat4 u_texture_map;       // M of eq. 2: D is read at M p'
+#endif
+#ifdef RAYWARP_CYLINDRICAL
+uniform mat3 u_cyl_frame;         // rows e_u, e_v, e_a: the axis a and the next two cyclically
 #endif
 #ifdef RAYWARP_CUT
 uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance to its boundary
@@ -112,14 +118,36 @@ vec3 texture_point(vec3 p_def) {
   return p_def;
 #endif
 }
+#ifdef RAYWARP_CYLINDRICAL
+// (theta, r, h) of a box-frame point, and back (library/cylindrical.h's convention).
+vec3 cylindrical(vec3 p) {
+  vec3 q = u_cyl_frame * p;
+  return vec3(atan(q.y, q.x), length(q.xy), q.z);
+}
+vec3 cartesian(vec3 c) { return transpose(u_cyl_frame) * vec3(c.y * cos(c.x), c.y * sin(c.x), c.z); }
+#endif
 #ifndef RAYWARP_MOVES_NOTHING
+// (D, w) at p': the texel read at M p', or for a cylindrical texture the preimage's coordinates
+// read at p''s, as a Cartesian displacement (no preimage beyond the grid along r or h).
 vec4 deformation(vec3 p_def) {
+#ifdef RAYWARP_CYLINDRICAL
+  vec3 c = cylindrical(p_def);
+  vec3 tc = (c - u_def_origin) / u_def_size;
+  if (tc.y > 1.0 || tc.z < 0.0 || tc.z > 1.0) return vec4(0.0);
+  vec4 t = texture(u_deformation, tc);
+  return vec4(cartesian(c + t.xyz) - p_def, t.w);
+#else
   return texture(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size);
+#endif
 }
 #endif
 #ifdef RAYWARP_CUT
 float alpha_at(vec3 p_def) {
+#ifdef RAYWARP_CYLINDRICAL
+  return texture(u_alpha, (cylindrical(p_def) - u_alpha_origin) / u_alpha_size).r;
+#else
   return texture(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size).r;
+#endif
 }
 #endif
 

@@ -7,6 +7,7 @@
 
 #include "base/error.h"
 #include "base/parallel.h"
+#include "library/cylindrical.h"
 #include "library/triangle_bvh.h"
 #include "verify/cpu_shading.h"
 
@@ -49,11 +50,14 @@ Vec3 texture_point(const BoxTextures& box, const Vec3& p_def) {
 
 // D and w at p', read at M p', as the shader's deformation().
 Eigen::Vector4d deformation_at(const BoxTextures& box, const Vec3& p_def) {
+  if (box.cylindrical())
+    return cylindrical_displacement(box.deformation.grid, box.cylindrical_axis, p_def);
   return box.deformation.grid.sample(texture_point(box, p_def));
 }
 
 // A at p', read at M p', as the shader's alpha_at().
 double alpha_at(const BoxTextures& box, const Vec3& p_def) {
+  if (box.cylindrical()) return cylindrical_alpha(box.alpha.grid, box.cylindrical_axis, p_def);
   return box.alpha.grid.sample(box.moves_nothing ? p_def : texture_point(box, p_def)).value();
 }
 
@@ -71,7 +75,7 @@ Sample sample_at(const BoxTextures& box, const Vec3& p_def, bool beyond_ok) {
     Eigen::Vector4d dv = deformation_at(box, p_def);
     Vec3 p = p_def + dv.head<3>();
     const Vec3& h = box.box.half_extents;
-    const bool near_face = (p_def.cwiseAbs() - h + box.deformation.grid.spacing).maxCoeff() > 0.0;
+    const bool near_face = (p_def.cwiseAbs() - h + deformation_step(box)).maxCoeff() > 0.0;
     const bool identity = dv.head<3>().norm() < kSeamVoxels * implicit_spacing(box);
     // Read through M, a texel beyond the box holding the identity is the identity here too.
     const bool mapped_out = !box.texture_map.isIdentity(0.0) && identity &&
@@ -179,7 +183,7 @@ bool bounded_search(const BoxTextures& box, const Vec3& o, const Vec3& d, double
 Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def) {
   Vec3 p = p_def + displacement(box, p_def);
   const double hf = implicit_spacing(box);
-  const Vec3& hd = box.deformation.grid.spacing;
+  const Vec3 hd = deformation_step(box);
   Vec3 grad_f;
   Eigen::Matrix3d jd;  // columns: dD/dx, dD/dy, dD/dz
   for (int a = 0; a < 3; ++a) {
@@ -192,7 +196,7 @@ Vec3 deformed_normal(const BoxTextures& box, const Vec3& p_def) {
 
 // The cut face's outward normal (into the cut): grad A (eq. 6), not normalised.
 Vec3 alpha_gradient(const BoxTextures& box, const Vec3& p_def) {
-  const Vec3& h = box.alpha.grid.spacing;
+  const Vec3 h = alpha_step(box);
   Vec3 g;
   for (int a = 0; a < 3; ++a)
     g[a] = (alpha_at(box, p_def + h[a] * Vec3::Unit(a)) -
@@ -462,7 +466,7 @@ class Rasterizer {
 }  // namespace
 
 double jacobian_step(const BoxTextures& box, const Vec3& p_def, const Vec3& v, double ds) {
-  const double h = box.deformation.grid.voxel();
+  const double h = deformation_step(box).minCoeff();
   const Vec3 jv = (displacement(box, p_def + h * v) - displacement(box, p_def - h * v)) / (2.0 * h);
   return ds / std::clamp((v + jv).norm(), 0.25, 16.0);
 }
