@@ -783,40 +783,26 @@ Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
   return image;
 }
 
-Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfSpace>& region,
-                       CutMode mode, const Camera& camera, int width, int height,
-                       const RenderSettings& settings) {
-  check_image_size("exact_cut_render", width, height);
+Image exact_removed_render(const Mesh& mesh, const Box& box, const RegionIntervals& intervals,
+                           CutMode mode, const Camera& camera, int width, int height,
+                           const RenderSettings& settings) {
+  check_image_size("exact_removed_render", width, height);
   if (mode == CutMode::ThickShell)
-    throw Error("exact_cut_render: thick shells have no exact reference");
+    throw Error("exact_removed_render: thick shells have no exact reference");
   Image image(width, height);
   const TriangleBvh bvh(mesh);
   const auto normals = vertex_normals(mesh);
   parallel_for(height, [&](int y) {
     for (int x = 0; x < width; ++x) {
       const Ray ray = camera.pixel_ray(x, y, width, height);
-      // The ray's interval [c0, c1] in the region (the local frame is rigid: same t), and the
-      // half-space whose plane it leaves through.
-      const Vec3 o = box.to_local(ray.origin), d = box.direction_to_local(ray.direction);
-      double c0 = -kInfinity, c1 = kInfinity;
-      int exit_plane = -1;
-      for (size_t k = 0; k < region.size() && c0 <= c1; ++k) {
-        const double nd = region[k].normal.dot(d),
-                     dist = region[k].offset - region[k].normal.dot(o);
-        if (nd == 0.0) {
-          if (dist < 0.0) c0 = kInfinity;
-          continue;
-        }
-        const double t = dist / nd;
-        if (nd > 0.0 && t < c1) {
-          c1 = t;
-          exit_plane = static_cast<int>(k);
-        } else if (nd < 0.0) {
-          c0 = std::max(c0, t);
-        }
-      }
-      const bool crosses = c0 < c1 && c1 > ray.t_min;
-      auto outside_region = [&](double t) { return !(crosses && t > c0 && t < c1); };
+      // The ray's intervals in the region (the local frame is rigid: same t).
+      const std::vector<RegionInterval> in =
+          intervals(box.to_local(ray.origin), box.direction_to_local(ray.direction));
+      auto outside_region = [&](double t) {
+        for (const RegionInterval& i : in)
+          if (t > i.t0 && t < i.t1) return false;
+        return true;
+      };
       double best_t = kInfinity;
       Vec3 normal = -ray.direction;
       HitKind kind = HitKind::Surface;
@@ -835,12 +821,15 @@ Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfS
           normal = -normal;
         }
       }
-      if (mode == CutMode::Solid && crosses && c1 < best_t && c1 < ray.t_max && exit_plane >= 0 &&
-          bvh.count_after(ray.origin, ray.direction, c1) % 2 == 1) {
-        best_t = c1;
-        kind = HitKind::CutFace;
-        normal = -box.direction_to_object(region[exit_plane].normal);
-      }
+      // Solid: the earliest point where the ray leaves the region inside the mesh, if before.
+      if (mode == CutMode::Solid)
+        for (const RegionInterval& i : in)
+          if (i.t0 < i.t1 && i.t1 > ray.t_min && i.t1 < best_t && i.t1 < ray.t_max &&
+              std::isfinite(i.t1) && bvh.count_after(ray.origin, ray.direction, i.t1) % 2 == 1) {
+            best_t = i.t1;
+            kind = HitKind::CutFace;
+            normal = -box.direction_to_object(i.exit_normal);
+          }
       if (best_t == kInfinity) {
         put_colour(image, x, y, settings.background);
         continue;
@@ -851,6 +840,76 @@ Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfS
     }
   });
   return image;
+}
+
+Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfSpace>& region,
+                       CutMode mode, const Camera& camera, int width, int height,
+                       const RenderSettings& settings) {
+  // A convex region: one interval [c0, c1], left through the half-space whose plane ends it.
+  auto interval = [&](const Vec3& o, const Vec3& d) {
+    double c0 = -kInfinity, c1 = kInfinity;
+    int exit_plane = -1;
+    for (size_t k = 0; k < region.size() && c0 <= c1; ++k) {
+      const double nd = region[k].normal.dot(d), dist = region[k].offset - region[k].normal.dot(o);
+      if (nd == 0.0) {
+        if (dist < 0.0) c0 = kInfinity;
+        continue;
+      }
+      const double t = dist / nd;
+      if (nd > 0.0 && t < c1) {
+        c1 = t;
+        exit_plane = static_cast<int>(k);
+      } else if (nd < 0.0) {
+        c0 = std::max(c0, t);
+      }
+    }
+    std::vector<RegionInterval> out;
+    if (c0 < c1)
+      out.push_back({c0, exit_plane >= 0 ? c1 : kInfinity,
+                     exit_plane >= 0 ? region[exit_plane].normal : Vec3::Zero().eval()});
+    return out;
+  };
+  return exact_removed_render(mesh, box, interval, mode, camera, width, height, settings);
+}
+
+std::vector<RegionInterval> groove_intervals(int axis, double radius, double width, const Vec3& o,
+                                             const Vec3& d) {
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  // The slab |x_a| <= width / 2.
+  double s0 = -kInfinity, s1 = kInfinity;
+  Vec3 slab_exit = Vec3::Zero();
+  if (d[axis] == 0.0) {
+    if (std::abs(o[axis]) > 0.5 * width) return {};
+  } else {
+    const double ta = (-0.5 * width - o[axis]) / d[axis], tb = (0.5 * width - o[axis]) / d[axis];
+    s0 = std::min(ta, tb);
+    s1 = std::max(ta, tb);
+    slab_exit[axis] = d[axis] > 0.0 ? 1.0 : -1.0;
+  }
+  // Inside the infinite cylinder r < radius for t in (q0, q1): A t^2 + B t + C < 0.
+  const double A = d[u] * d[u] + d[v] * d[v], B = 2.0 * (o[u] * d[u] + o[v] * d[v]),
+               C = o[u] * o[u] + o[v] * o[v] - radius * radius;
+  const double disc = B * B - 4.0 * A * C;
+  if (A == 0.0 || disc <= 0.0) {
+    if (A == 0.0 && C < 0.0) return {};
+    return {{s0, s1, slab_exit}};
+  }
+  const double sq = std::sqrt(disc);
+  const double q = -0.5 * (B + (B >= 0.0 ? sq : -sq));
+  const double q0 = std::min(q / A, C / q), q1 = std::max(q / A, C / q);
+  // The region's outward normal where the ray enters the cylinder: towards the axis.
+  Vec3 p = o + q0 * d;
+  p[axis] = 0.0;
+  const Vec3 inward = -p / std::max(p.norm(), 1e-300);
+  std::vector<RegionInterval> out;
+  if (std::min(s1, q0) > s0) {
+    if (q0 < s1)
+      out.push_back({s0, q0, inward});
+    else
+      out.push_back({s0, s1, slab_exit});
+  }
+  if (std::max(s0, q1) < s1) out.push_back({std::max(s0, q1), s1, slab_exit});
+  return out;
 }
 
 }  // namespace raywarp

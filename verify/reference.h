@@ -68,6 +68,27 @@ Image exact_cut_render(const Mesh& mesh, const Box& box, const std::vector<HalfS
                        CutMode mode, const Camera& camera, int width, int height,
                        const RenderSettings& settings);
 
+// A removed region by its intervals along a ray: each (t0, t1) lies in the region, which the ray
+// leaves at t1 through a face of outward normal exit_normal (box-local frame; t1 = +inf: it does
+// not leave).
+struct RegionInterval {
+  double t0, t1;
+  Eigen::Vector3d exit_normal;
+};
+using RegionIntervals = std::function<std::vector<RegionInterval>(
+    const Eigen::Vector3d& origin_local, const Eigen::Vector3d& dir_local)>;
+// exact_cut_render for any removed region given by its intervals along each ray (hollow: the
+// first hit outside them; solid: or the earliest exit inside the mesh).
+Image exact_removed_render(const Mesh& mesh, const Box& box, const RegionIntervals& intervals,
+                           CutMode mode, const Camera& camera, int width, int height,
+                           const RenderSettings& settings);
+// The intervals of a groove's removed region (a ring about `axis` through the box centre: r >=
+// radius and |x_axis| <= width / 2, box-local), solved from the quadratic of the cylinder and the
+// slab's planes: deformers/groove.h's region, independent of its alpha.
+std::vector<RegionInterval> groove_intervals(int axis, double radius, double width,
+                                             const Eigen::Vector3d& origin_local,
+                                             const Eigen::Vector3d& dir_local);
+
 // CPU z-buffer rasterisation of all triangles, shaded like the GL renderer (flat colour from
 // the face normal), depth as docs/conventions.md#depth. Pixel centres sampled, row 0 at the top.
 Image rasterize(const Mesh& mesh, const Camera& camera, int width, int height,
