@@ -61,6 +61,13 @@ void check_box(const Scene& scene, const fs::path& scene_file, int only) {
     throw Error("--box " + std::to_string(only) + ": " + scene_file.string() + " has " +
                 std::to_string(scene.boxes.size()) + " boxes (0 to " +
                 std::to_string(int(scene.boxes.size()) - 1) + ")");
+  // Engines read exported textures over the box's (x, y, z): refused before anything is baked.
+  for (size_t i = 0; i < scene.boxes.size(); ++i)
+    if ((only < 0 || static_cast<int>(i) == only) && scene.boxes[i].mapping.cylindrical)
+      throw Error(scene_file.string() + ": boxes[" + std::to_string(i) +
+                  "].mapping.type = \"cylindrical\": export writes textures over the box's (x, y, "
+                  "z), as engines read them; bake this box with mapping \"cartesian\" to export "
+                  "it");
 }
 
 // The scene's ray-cast variants as standalone GLSL, and what each engine needs to import a box
