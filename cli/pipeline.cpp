@@ -1,7 +1,9 @@
 #include "cli/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <ostream>
+#include <string>
 
 #include "base/format.h"
 #include "library/depth_cube.h"
@@ -98,9 +100,12 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
         << " voxels beyond (" << fmt("%.2f", def->seconds) << " s)\n";
   } else {
     log << tag << "deformation texture " << dims_string(def->resolution) << ", texel "
-        << spacing_string(def->spacing) << ", " << fmt("%.1f", mib(def->bytes))
-        << " MiB, |I + J_D| <= " << fmt("%.3g", r.lipschitz) << " (" << fmt("%.2f", def->seconds)
-        << " s)\n";
+        << spacing_string(def->spacing) << ", " << fmt("%.1f", mib(def->bytes)) << " MiB, "
+        << (std::isfinite(r.lipschitz)
+                ? "|I + J_D| <= " + fmt("%.3g", r.lipschitz)
+                : std::string("cylindrical (angle, radius, height), no |I + J_D| bound: no "
+                              "empty-space skipping"))
+        << " (" << fmt("%.2f", def->seconds) << " s)\n";
     const ResolutionChoice& c = r.deformation_choice;
     if (c.automatic)
       log << tag << "deformation texture layout: auto, for an error of at most "
