@@ -444,22 +444,26 @@ TEST(ShaderVariants, EveryVariantCompiles) {
   std::set<gl::Feature> seen;
   size_t smallest = SIZE_MAX, largest = 0;
   for (int cut = 0; cut <= 3; ++cut)
-    for (int moves = 0; moves <= (cut ? 1 : 2); ++moves)  // 2: D read through a texture map
+    // moves: 0 D, 1 no D, 2 (no cut) D read through a texture map, 3 (no cut) a cylindrical D,
+    // 2 (cut) no D and a cylindrical A.
+    for (int moves = 0; moves <= (cut ? 2 : 3); ++moves)
       for (const gl::FeatureInfo& sampling : gl::kFeatures) {
         if (!sampling.setting) continue;
-        if (sampling.feature == gl::Feature::SamplingBounded && moves == 2) continue;
+        const bool mapped = !cut && moves == 2, cylindrical = moves == (cut ? 2 : 3);
+        if (sampling.feature == gl::Feature::SamplingBounded && (mapped || cylindrical)) continue;
         for (bool skipping : {false, true}) {
           BoxTextures b = cut ? box_cut_box(CutMode(cut - 1)) : twist_box();
-          b.moves_nothing = moves == 1;
+          b.moves_nothing = moves == 1 || (cut && moves == 2);
           b.lipschitz = 1.0;
           b.sdf.grid =
               Grid3<float>(Eigen::Vector3d(-1, -1, -1), 0.5, Eigen::Vector3i(4, 4, 4), 1.f);
           b.sdf.background = 1.0f;
-          if (moves != 1)
+          if (!b.moves_nothing)
             b.deformation.grid =
                 Grid3<Eigen::Vector4f>(Eigen::Vector3d(-1, -1, -1), 0.5, Eigen::Vector3i(4, 4, 4),
                                        Eigen::Vector4f(0, 0, 0, 1));
-          if (moves == 2) b.texture_map(0, 3) = 0.25;
+          if (mapped) b.texture_map(0, 3) = 0.25;
+          if (cylindrical) b.cylindrical_axis = 1;
           if (cut)
             b.alpha.grid =
                 Grid3<float>(Eigen::Vector3d(-1, -1, -1), 0.5, Eigen::Vector3i(4, 4, 4), -1.f);
