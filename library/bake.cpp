@@ -943,13 +943,14 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
           spec.box.half_extents + Eigen::Vector3d::Constant(kCapVoxels * voxel)));
     return r;
   }();
-  const CylindricalDomain domain = cylindrical_domain(cylinder_region, mapping.axis);
+  const CylindricalDomain domain =
+      cylindrical_domain(cylinder_region, mapping.axis, spec.box.half_extents);
   Key mapping_key;
   if (mapping.cylindrical)
     mapping_key << "cylindrical about" << mapping.axis << "angle texels" << mapping.angle_texels
                 << "floor" << kAutoCylindricalFloor[0] << kAutoCylindricalFloor[1]
                 << kAutoCylindricalFloor[2] << "domain" << domain.radius << domain.low
-                << domain.high;
+                << domain.high << "faces" << domain.faces << domain.face_low << domain.face_high;
   Key layout;
   if (automatic)
     layout << "auto, error" << target << "budget" << double(budget) << "floor"

@@ -77,6 +77,37 @@ CylindricalDomain cylindrical_domain(const Eigen::AlignedBox3d& region, int axis
   return d;
 }
 
+CylindricalDomain cylindrical_domain(const Eigen::AlignedBox3d& region, int axis,
+                                     const Eigen::Vector3d& half_extents) {
+  CylindricalDomain d = cylindrical_domain(region, axis);
+  const double h = half_extents[axis];
+  if (d.low <= -h && d.high >= h && h > 0.0) {
+    d.faces = true;
+    d.face_low = -h;
+    d.face_high = h;
+  }
+  return d;
+}
+
+void cylindrical_heights(const CylindricalDomain& domain, int n, double* first, double* spacing) {
+  const int intervals = std::max(n - 1, 1);
+  *first = domain.low;
+  *spacing = (domain.high - domain.low) / intervals;
+  if (!domain.faces) return;
+  const double length = domain.face_high - domain.face_low;
+  const double below = std::max(0.0, domain.face_low - domain.low);
+  const double above = std::max(0.0, domain.high - domain.face_high);
+  if (!(length > 0.0)) return;
+  // Whole texels of length / k beyond each face to reach low and high.
+  auto pad = [&](double extra, int k) { return int(std::ceil(extra * k / length - 1e-9)); };
+  for (int k = intervals; k >= 1; --k)
+    if (k + pad(below, k) + pad(above, k) <= intervals) {
+      *spacing = length / k;
+      *first = domain.face_low - pad(below, k) * *spacing;
+      return;
+    }
+}
+
 Eigen::Vector4d cylindrical_displacement(const Grid3<Eigen::Vector4f>& grid, int axis,
                                          const Eigen::Vector3d& p_def) {
   const Eigen::Vector3d c = to_cylindrical(p_def, axis);

@@ -41,21 +41,37 @@ namespace raywarp {
 Eigen::Vector3d to_cylindrical(const Eigen::Vector3d& p, int axis);
 Eigen::Vector3d from_cylindrical(const Eigen::Vector3d& c, int axis);
 
-// What a cylindrical texture covers: radii [0, radius], heights [low, high].
+// What a cylindrical texture covers: radii [0, radius], heights [low, high]. With `faces`, the
+// box's faces across the axis lie at heights face_low and face_high inside [low, high]: a
+// deformation often has a kink there (a twist's angle stops at the box's ends), so the layout puts
+// texel centres on them, and a texel's interpolation never straddles one.
 struct CylindricalDomain {
   double radius = 0.0, low = 0.0, high = 0.0;
+  bool faces = false;
+  double face_low = 0.0, face_high = 0.0;
 };
 // The domain that holds `region` (box frame): its largest radius about `axis`, its extent along it.
 CylindricalDomain cylindrical_domain(const Eigen::AlignedBox3d& region, int axis);
+// The same, with the faces of the box of `half_extents` across `axis` when `region` holds them.
+CylindricalDomain cylindrical_domain(const Eigen::AlignedBox3d& region, int axis,
+                                     const Eigen::Vector3d& half_extents);
+
+// The heights of a layout with n >= 2 texels over `domain`: its first texel centre and spacing.
+// Without faces the first and last centres lie on low and high. With faces, on face_low and
+// face_high as well: the spacing divides face_high - face_low, and whole texels pad beyond the
+// faces to low and high (the last texel may lie past high); where n is too small for that, as
+// without faces.
+void cylindrical_heights(const CylindricalDomain& domain, int n, double* first, double* spacing);
 
 // The grid over `domain` with `counts` texels (theta, r, h), counts >= (2, 2, 2); all `fill`.
 template <typename T>
 Grid3<T> cylindrical_layout(const CylindricalDomain& domain, const Eigen::Vector3i& counts,
                             const T& fill) {
   const double dr = domain.radius / (counts[1] - 1);
-  const double dh = (domain.high - domain.low) / (counts[2] - 1);
+  double first = 0.0, dh = 0.0;
+  cylindrical_heights(domain, counts[2], &first, &dh);
   const double two_pi = 2.0 * 3.14159265358979323846;
-  return Grid3<T>(Eigen::Vector3d(-0.5 * two_pi, -0.5 * dr, domain.low - 0.5 * dh),
+  return Grid3<T>(Eigen::Vector3d(-0.5 * two_pi, -0.5 * dr, first - 0.5 * dh),
                   Eigen::Vector3d(two_pi / counts[0], dr, dh), counts, fill);
 }
 

@@ -134,6 +134,47 @@ TEST(Cylindrical, TwistOfTwoTurnsIsHeldByAFewTexels) {
   EXPECT_EQ(r.over_tolerance, 0);
 }
 
+// The twist's angle stops at the box's ends: a kink at y = +-h_y. Over a domain that reaches past
+// them (the scene's, grown by two voxels) the layout puts texel centres on both faces, so that
+// the points next to them read the exact preimage too.
+TEST(Cylindrical, TexelCentresLieOnTheBoxFacesAcrossTheAxis) {
+  const Eigen::AlignedBox3d grown(-kHalf - Eigen::Vector3d::Constant(0.05),
+                                  kHalf + Eigen::Vector3d::Constant(0.05));
+  const CylindricalDomain domain = cylindrical_domain(grown, 1, kHalf);
+  ASSERT_TRUE(domain.faces);
+  const auto twist = make_twist(kHalf, Axis::Y, 720.0);
+  for (int n : {8, 9, 32, 33}) {
+    const DeformationTexture t =
+        bake_cylindrical_deformation(*twist, 1, domain, Eigen::Vector3i(4, 8, n));
+    const Grid3<Eigen::Vector4f>& g = t.grid;
+    int on_low = 0, on_high = 0;
+    for (int k = 0; k < n; ++k) {
+      on_low += std::abs(g.texel_centre(0, 0, k)[2] + kHalf.y()) < 1e-12;
+      on_high += std::abs(g.texel_centre(0, 0, k)[2] - kHalf.y()) < 1e-12;
+    }
+    EXPECT_EQ(on_low, 1) << n;
+    EXPECT_EQ(on_high, 1) << n;
+    EXPECT_LE(g.texel_centre(0, 0, 0)[2], grown.min().y()) << n;
+    EXPECT_GE(g.texel_centre(0, 0, n - 1)[2], grown.max().y()) << n;
+    // Points within a hundredth of the ends read the exact preimage.
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(-1.0, 1.0), e(0.0, 0.01);
+    double worst = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+      const double y = (i % 2 ? 1 : -1) * (kHalf.y() - e(rng));
+      const Eigen::Vector3d p(0.7 * u(rng), y, 0.7 * u(rng));
+      const Eigen::Vector4d d = cylindrical_displacement(g, 1, p);
+      worst = std::max(worst, (p + d.head<3>() - twist->inverse(p)).norm());
+    }
+    EXPECT_LT(worst, 1e-5) << n;
+  }
+  // Without room for its padding (n = 2), the plain layout.
+  double first = 0, dh = 0;
+  cylindrical_heights(domain, 2, &first, &dh);
+  EXPECT_DOUBLE_EQ(first, domain.low);
+  EXPECT_DOUBLE_EQ(dh, domain.high - domain.low);
+}
+
 // About another axis than the twist's, the texture is no simpler than a Cartesian one: the error
 // measure must see it.
 TEST(Cylindrical, ErrorSeesAMismatchedAxis) {
