@@ -311,6 +311,8 @@ class Editor {
     if (!changed) return false;
     json document = doc_->json();
     Scene scene = doc_->scene();
+    for (size_t i : *changed)  // cylindrical textures are not read through M: bake as edited
+      if (scene.boxes[i].mapping.cylindrical) return false;
     for (size_t i : *changed) {
       const double now = scene.boxes[i].deformer.angle_deg;
       const double was = baked_->scene.boxes[i].deformer.angle_deg;
@@ -1072,6 +1074,20 @@ class Editor {
         for (const char* key : {"band_voxels", "margin_voxels"}) implicit.erase(key);
     }
     remember("implicit");
+    // How D and A are stored: over (x, y, z), or over (angle, radius, height) about an axis.
+    const char* mappings[] = {"cartesian", "cylindrical x", "cylindrical y", "cylindrical z"};
+    int mapping = spec.mapping.cylindrical ? 1 + spec.mapping.axis : 0;
+    if (ImGui::Combo("mapping", &mapping, mappings, 4)) {
+      if (mapping == 0) {
+        box.erase("mapping");
+      } else {
+        json& m = box["mapping"];
+        if (!m.is_object()) m = json::object();
+        m["type"] = "cylindrical";
+        m["axis"] = std::string(1, char('x' + mapping - 1));
+      }
+    }
+    remember("mapping");
     resolution_combo(box["implicit"], "implicit.resolution", spec.implicit.resolution);
     resolution_combo(box["deformation"], "deformation.resolution", spec.deformation_resolution);
     if (cuts) resolution_combo(box["alpha"], "alpha.resolution", spec.alpha_resolution);

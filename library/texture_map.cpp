@@ -14,6 +14,10 @@ TextureMapping twist_angle_mapping(const BoxSpec& spec, const BoxTextures& baked
   const double angle = spec.deformer.angle_deg;
   if (spec.deformer.type != "twist" || !spec.then.empty())
     throw Error("twist_angle_mapping: the box's only deformer must be a twist");
+  if (baked.cylindrical())
+    throw Error(
+        "twist_angle_mapping: the box's textures are cylindrical, read at p' and not "
+        "through M");
   if (baked_angle_deg == 0.0 || angle * baked_angle_deg < 0.0 ||
       std::abs(angle) > std::abs(baked_angle_deg))
     throw Error("twist_angle_mapping: angle " + format_number(angle) + " is not within [0, " +

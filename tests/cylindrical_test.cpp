@@ -17,6 +17,7 @@
 #include "deformers/twist.h"
 #include "library/deformation_bake.h"
 #include "library/scene.h"
+#include "library/texture_map.h"
 
 using namespace raywarp;
 
@@ -335,6 +336,19 @@ TEST(CylindricalScene, RefusalsNameTheFieldAndWhatIsAllowed) {
                             "\"cylindrical\""),
             std::string::npos)
       << refusal(j);
+}
+
+// A twist's angle is animated through M on Cartesian textures only (cli/animate.cpp and the
+// editor then re-bake a cylindrical box).
+TEST(CylindricalScene, TwistAngleMappingRefusesCylindricalTextures) {
+  nlohmann::json j = twist_scene();
+  j["boxes"][0]["mapping"] = {{"type", "cylindrical"}, {"axis", "y"}};
+  const BoxSpec spec = load_scene_json(j, kScene).boxes[0];
+  BoxTextures baked;
+  baked.cylindrical_axis = 1;
+  EXPECT_THROW(twist_angle_mapping(spec, baked, 720.0), Error);
+  baked.cylindrical_axis = -1;
+  EXPECT_NO_THROW(twist_angle_mapping(spec, baked, 720.0));
 }
 
 }  // namespace
