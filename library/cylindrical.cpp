@@ -191,10 +191,14 @@ AlphaMap bake_cylindrical_alpha(const Deformer& deformer, int axis, const Cylind
   return out;
 }
 
-double cylindrical_deformation_error(const Deformer& deformer, const Eigen::Vector3d& half_extents,
-                                     const DeformationTexture& texture, int axis,
-                                     Interrupter* interrupter) {
-  const Grid3<Eigen::Vector4f>& g = texture.grid;
+namespace {
+
+// The largest of error(c) over the centres c of a cylindrical grid's cells (periodic in the
+// angle: as many cells as texels around), in parallel by rows; error returns 0 where it does not
+// count.
+template <class T, class CellError>
+double max_over_cells(const Grid3<T>& g, const char* what, Interrupter* interrupter,
+                      CellError&& error) {
   const int ni = g.dims.x(), nj = g.dims.y() - 1, nk = g.dims.z() - 1;
   std::vector<double> rows(size_t(nj) * nk, 0.0);
   parallel_for(
@@ -202,46 +206,40 @@ double cylindrical_deformation_error(const Deformer& deformer, const Eigen::Vect
       [&](long row) {
         const int j = int(row % nj), k = int(row / nj);
         double worst = 0.0;
-        for (int i = 0; i < ni; ++i) {
-          const Eigen::Vector3d c = g.cell_centre(i, j, k);
-          const Eigen::Vector3d p_def = from_cylindrical(c, axis);
-          const Eigen::Vector3d exact = deformer.inverse(p_def);
-          if (!in_box(exact, half_extents)) continue;
-          if (deformer.has_cut() && deformer.alpha(p_def) > -cell_reach(g.spacing, c[1])) continue;
-          const Eigen::Vector4d d = cylindrical_displacement(g, axis, p_def);
-          worst = std::max(worst, (p_def + d.head<3>() - exact).norm());
-        }
+        for (int i = 0; i < ni; ++i) worst = std::max(worst, error(g.cell_centre(i, j, k)));
         rows[size_t(row)] = worst;
       },
-      interrupter, "cylindrical deformation error");
+      interrupter, what);
   double worst = 0.0;
   for (double r : rows) worst = std::max(worst, r);
   return worst;
 }
 
+}  // namespace
+
+double cylindrical_deformation_error(const Deformer& deformer, const Eigen::Vector3d& half_extents,
+                                     const DeformationTexture& texture, int axis,
+                                     Interrupter* interrupter) {
+  const Grid3<Eigen::Vector4f>& g = texture.grid;
+  return max_over_cells(
+      g, "cylindrical deformation error", interrupter, [&](const Eigen::Vector3d& c) {
+        const Eigen::Vector3d p_def = from_cylindrical(c, axis);
+        const Eigen::Vector3d exact = deformer.inverse(p_def);
+        if (!in_box(exact, half_extents)) return 0.0;
+        if (deformer.has_cut() && deformer.alpha(p_def) > -cell_reach(g.spacing, c[1])) return 0.0;
+        const Eigen::Vector4d d = cylindrical_displacement(g, axis, p_def);
+        return (p_def + d.head<3>() - exact).norm();
+      });
+}
+
 double cylindrical_alpha_error(const Deformer& deformer, const AlphaMap& map, int axis, double band,
                                Interrupter* interrupter) {
-  const Grid3<float>& g = map.grid;
-  const int ni = g.dims.x(), nj = g.dims.y() - 1, nk = g.dims.z() - 1;
-  std::vector<double> rows(size_t(nj) * nk, 0.0);
-  parallel_for(
-      long(nj) * nk,
-      [&](long row) {
-        const int j = int(row % nj), k = int(row / nj);
-        double worst = 0.0;
-        for (int i = 0; i < ni; ++i) {
-          const Eigen::Vector3d c = g.cell_centre(i, j, k);
-          const Eigen::Vector3d p_def = from_cylindrical(c, axis);
-          const double exact = deformer.alpha(p_def);
-          if (!(std::abs(exact) < band)) continue;
-          worst = std::max(worst, std::abs(sample_periodic(g, c).value() - exact));
-        }
-        rows[size_t(row)] = worst;
-      },
-      interrupter, "cylindrical alpha error");
-  double worst = 0.0;
-  for (double r : rows) worst = std::max(worst, r);
-  return worst;
+  return max_over_cells(map.grid, "cylindrical alpha error", interrupter,
+                        [&](const Eigen::Vector3d& c) {
+                          const double exact = deformer.alpha(from_cylindrical(c, axis));
+                          if (!(std::abs(exact) < band)) return 0.0;
+                          return std::abs(sample_periodic(map.grid, c).value() - exact);
+                        });
 }
 
 namespace {
