@@ -12,7 +12,6 @@
 //   - the command line: `raywarp bake` refuses to export a cylindrical box with status 2, the
 //     file and the field named, and writes nothing.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <array>
 #include <cstdio>
@@ -22,6 +21,7 @@
 
 #include "deformers/deformer.h"
 #include "tests/ground_truth_render.h"
+#include "tests/run_raywarp.h"
 
 using namespace raywarp;
 
@@ -156,22 +156,14 @@ INSTANTIATE_TEST_SUITE_P(Modes, GrooveRender, ::testing::Values(CutMode::Solid, 
                            return std::string(cut_mode_name(i.param));
                          });
 
-int run_command(const std::string& args, std::string* output) {
-  const std::string cmd = std::string(RAYWARP_BINARY) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), pipe)) output->append(buf.data(), n);
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 TEST(CylindricalCommand, ExportRefusesACylindricalBox) {
   const std::filesystem::path out =
       std::filesystem::temp_directory_path() / "raywarp_cylindrical_render_test_export";
   std::filesystem::remove_all(out);
   std::string output;
-  EXPECT_EQ(
-      run_command("bake " + kRoot + "/examples/bunny_groove.json -o " + out.string(), &output), 2)
+  EXPECT_EQ(raywarp::testing::run_raywarp(
+                "bake " + kRoot + "/examples/bunny_groove.json -o " + out.string(), &output),
+            2)
       << output;
   EXPECT_NE(output.find("bunny_groove.json: boxes[0].mapping.type = \"cylindrical\": export "
                         "writes textures over the box's (x, y, z)"),

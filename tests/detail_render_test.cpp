@@ -11,7 +11,6 @@
 //   - against the twist alone: the detail must show (pixels whose shade or depth changes).
 // And the command line refuses a scale that could fold with exit status 2 and the field named.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <array>
@@ -24,6 +23,7 @@
 #include <string>
 
 #include "tests/ground_truth_render.h"
+#include "tests/run_raywarp.h"
 
 using namespace raywarp;
 
@@ -103,15 +103,6 @@ TEST(DetailRender, TwistWithDetailMatchesReferenceAndComposition) {
   EXPECT_GT(vs_twist.fraction_over, 0.05);
 }
 
-int run_command(const std::string& args, std::string* output) {
-  const std::string cmd = std::string(RAYWARP_BINARY) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), pipe)) output->append(buf.data(), n);
-  const int status = pclose(pipe);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 TEST(DetailRender, CommandRefusesAFoldingScale) {
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / "raywarp_detail_render_test";
@@ -127,8 +118,9 @@ TEST(DetailRender, CommandRefusesAFoldingScale) {
   const std::filesystem::path out = dir / "folds.png";
   std::filesystem::remove(out);
   std::string output;
-  EXPECT_EQ(
-      run_command("render " + scene.string() + " -o " + out.string() + " --no-cache", &output), 2)
+  EXPECT_EQ(raywarp::testing::run_raywarp(
+                "render " + scene.string() + " -o " + out.string() + " --no-cache", &output),
+            2)
       << output;
   EXPECT_NE(output.find("folds.json: boxes[0].deformer[1].scale = 0.5: must be in [0, "),
             std::string::npos)
