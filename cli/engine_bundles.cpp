@@ -5,11 +5,13 @@
 #include <cmath>
 #include <map>
 #include <regex>
+#include <set>
 #include <sstream>
 #include <vector>
 
 #include "base/atomic_file.h"
 #include "base/error.h"
+#include "cli/engine_shaders.h"
 #include "cli/viewer_assets.h"
 #include "library/scene.h"
 
@@ -233,8 +235,8 @@ std::string atlas_w_note(const std::vector<Tex>& texs, const json& side,
 
 // ---- three.js ---------------------------------------------------------------------------------
 
-// The uniforms gl/renderer.cpp sets that depend on the sidecar alone (viewer/viewer.js loadBox):
-// everything in object units, box frame.
+}  // namespace
+
 json box_uniform_values(const json& side) {
   const std::vector<double> h = side.at("box").at("half_extents").get<std::vector<double>>();
   const double hmax = *std::max_element(h.begin(), h.end());
@@ -294,18 +296,16 @@ json box_uniform_values(const json& side) {
     u["u_def_size"] = g.size;
     u["u_def_spacing"] = def_spacing = g.spacing;
   }
-  // H M H^-1, row-major.
-  json M = json::array();
+  // H M H^-1, by its first three rows (the shaders' u_texture_map_x, _y, _z).
   const json& Ms = side.at("texture_map");
-  for (int r = 0; r < 4; ++r) {
+  for (int r = 0; r < 3; ++r) {
     json row = json::array();
     for (int k = 0; k < 4; ++k) {
-      const double hr = r < 3 ? h[r] : 1.0, hk = k < 3 ? h[k] : 1.0;
-      row.push_back(hr * Ms[r][k].get<double>() / hk);
+      const double hk = k < 3 ? h[k] : 1.0;
+      row.push_back(h[r] * Ms[r][k].get<double>() / hk);
     }
-    M.push_back(row);
+    u[std::string("u_texture_map_") + "xyz"[r]] = row;
   }
-  u["u_texture_map"] = M;
   const bool cut = render.value("has_cut", false);
   double cut_margin = 0;
   if (tx.contains("alpha")) {
@@ -341,6 +341,8 @@ json box_uniform_values(const json& side) {
   }
   return u;
 }
+
+namespace {
 
 // The GLSL ES 3.00 shaders write_shader_bundle wrote beside the sidecar (raywarp library), if any:
 // the box's fragment shader STEM.raycast.es.frag.glsl and the entry's vertex shader.
@@ -484,10 +486,9 @@ export function boxUniforms(textures, settings = DEFAULT_SETTINGS) {
   u.u_box_to_object = { value: boxToObject };
   u.u_object_to_box = { value: boxToObject.clone().invert() };
   u.u_box_to_object_dir = { value: new THREE.Matrix3().set(...B.u_box_to_object_dir.flat()) };
-  u.u_texture_map = { value: matrix4(B.u_texture_map) };
   for (const [k, x] of Object.entries(B)) {
     if (u[k]) continue;
-    u[k] = { value: Array.isArray(x) ? v3(x) : x };
+    u[k] = { value: !Array.isArray(x) ? x : x.length === 4 ? new THREE.Vector4(...x) : v3(x) };
   }
   u.u_lipschitz = { value: B.u_lipschitz < 0 ? Infinity : B.u_lipschitz };
   const voxel = B.u_sdf_spacing;
@@ -886,7 +887,34 @@ std::string godot_import(const json& atlas) {
 
 }  // namespace
 
-json write_engine_bundles(const json& side, const fs::path& dir, const std::string& stem) {
+std::vector<std::string> parse_engines(const std::string& list) {
+  std::vector<std::string> names, out;
+  for (const EngineLimit& e : kEngineLimits) names.push_back(e.name);
+  if (list == "all") return names;
+  std::string allowed;
+  for (const std::string& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
+  std::set<std::string> chosen;
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t comma = std::min(list.find(',', start), list.size());
+    const std::string word = list.substr(start, comma - start);
+    if (std::find(names.begin(), names.end(), word) == names.end())
+      throw Error("--engines: \"" + word +
+                  "\" is no engine; give all or a comma-separated list of " + allowed);
+    chosen.insert(word);
+    start = comma + 1;
+  }
+  for (const std::string& n : names)
+    if (chosen.count(n)) out.push_back(n);
+  return out;
+}
+
+json write_engine_bundles(const json& side, const fs::path& dir, const std::string& stem,
+                          const std::optional<BundleShaders>& shaders,
+                          const std::vector<std::string>& engines) {
+  auto wants = [&](const char* engine) {
+    return engines.empty() || std::find(engines.begin(), engines.end(), engine) != engines.end();
+  };
   if (side.value("schema", "") != "raywarp.export" || side.value("version", 0) != 1)
     throw Error(stem + ".json: not a raywarp.export version 1 sidecar");
   const std::string folder = stem + ".engines";
@@ -901,7 +929,7 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
   const std::string common = common_checklist(side, stem, texs);
 
   // three.js
-  {
+  if (wants("threejs")) {
     json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
     std::vector<std::string> missing;
     if (ktx2)
@@ -958,7 +986,7 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
         {"u_def_origin", "textures.deformation.region.min * h"},
         {"u_def_size", "(region.max - region.min) * h"},
         {"u_def_spacing", "u_def_size / dims"},
-        {"u_texture_map", "H M H^-1, H = diag(h, 1), M = texture_map"},
+        {"u_texture_map_x", "rows 0, 1, 2 of H M H^-1 (_y, _z), H = diag(h, 1), M = texture_map"},
         {"u_thickness", "render.shell_thickness_voxels * voxel_box_units * max(h) (0 uncut)"},
         {"u_cut_margin", "|u_alpha_spacing| + 0.5 |u_def_spacing| (0 uncut)"},
         {"u_lipschitz", "render.lipschitz (-1: +infinity)"},
@@ -996,7 +1024,7 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
   }
 
   // Unity
-  {
+  if (wants("unity")) {
     json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
     std::vector<std::string> missing;
     std::vector<std::string> volume_files;
@@ -1065,7 +1093,7 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
   }
 
   // Unreal
-  {
+  if (wants("unreal")) {
     json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
     std::vector<std::string> missing;
     if (exr)
@@ -1119,7 +1147,7 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
   }
 
   // Godot
-  {
+  if (wants("godot")) {
     json e = {{"files", json::array()}, {"formats", json::array()}, {"missing", json::array()}};
     std::vector<std::string> missing;
     if (exr) {
@@ -1172,6 +1200,13 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
     e["files"].push_back(rel("godot", "CHECKLIST.md"));
     for (const std::string& m : missing) e["missing"].push_back(m);
     result["engines"]["godot"] = e;
+  }
+  if (shaders) {
+    const json written =
+        write_engine_shaders(side, root, stem, shaders->variant, shaders->settings, engines);
+    for (const auto& [engine, files] : written.items())
+      for (const auto& f : files)
+        result["engines"][engine]["files"].push_back(folder + "/" + f.get<std::string>());
   }
   return result;
 }

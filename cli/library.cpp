@@ -220,7 +220,9 @@ nlohmann::json build_entry(const EntrySource& e, const LibraryOptions& o, BakeSe
     const nlohmann::json shaders = write_shader_bundle(shown, scene.render, tmp, e.name);
     for (size_t i = 0; i < scene.boxes.size(); ++i) {
       const std::string stem = e.name + "_box" + std::to_string(i);
-      write_engine_bundles(read_json(tmp / (stem + ".json")), tmp, stem);
+      write_engine_bundles(
+          read_json(tmp / (stem + ".json")), tmp, stem,
+          BundleShaders{gl::raycast_variant(shown[i], scene.render), scene.render});
     }
     const Eigen::Vector2i full = image_size(scene, *scene.camera, 0, 0);
     const Eigen::Vector2i thumb = thumbnail_size(full, o.thumbnail_size);

@@ -304,7 +304,7 @@ int run_study_cli(StudyCli opt) {
 }
 
 struct BakeCli {
-  std::string scene, out, formats = "ktx2", cache_dir;
+  std::string scene, out, formats = "ktx2", cache_dir, engines = "all";
   int box = -1;
   int atlas_border = 0;
   bool float32 = false, dds_legacy = false, orientation = false, no_cache = false;
@@ -337,11 +337,12 @@ int run_bake(const BakeCli& opt) {
   int frames = opt.frames;
   const std::vector<AnimatedParam> params =
       animated_params(opt.scene, opt.params, opt.sequence, frames);
+  const std::vector<std::string> engines = parse_engines(opt.engines);
   if (params.empty())
-    bake_and_export(opt.scene, options, opt.out, session, std::cerr, opt.box);
+    bake_and_export(opt.scene, options, opt.out, session, std::cerr, opt.box, engines);
   else
     bake_and_export_sequence(opt.scene, params, frames, options, opt.out, session, std::cerr,
-                             opt.box);
+                             opt.box, engines);
   report_cache(cache.get());
   return 0;
 }
@@ -443,6 +444,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bake->add_flag("--dds-legacy", bopt.dds_legacy,
                  "DDS with a D3DFORMAT FourCC (113 for RGBA16F) instead of the DX10 header");
+  bake->add_option("--engines", bopt.engines,
+                   "Engine bundles to write beside the textures: all (default) or a "
+                   "comma-separated list of threejs, unity, unreal, godot; a texture larger than "
+                   "an engine's 3D textures (three.js 256 a side, the others 2048) is refused");
   bake->add_option("--box", bopt.box, "Export only this box (0-based)")
       ->check(CLI::NonNegativeNumber);
   bake->add_flag("--orientation-test", bopt.orientation,

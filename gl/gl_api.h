@@ -50,6 +50,7 @@ namespace raywarp::gl {
   X(PFNGLUNIFORM1FPROC, glUniform1f)                             \
   X(PFNGLUNIFORM2FPROC, glUniform2f)                             \
   X(PFNGLUNIFORM3FPROC, glUniform3f)                             \
+  X(PFNGLUNIFORM4FPROC, glUniform4f)                             \
   X(PFNGLUNIFORMMATRIX4FVPROC, glUniformMatrix4fv)               \
   X(PFNGLUNIFORMMATRIX3FVPROC, glUniformMatrix3fv)               \
   X(PFNGLGENVERTEXARRAYSPROC, glGenVertexArrays)                 \

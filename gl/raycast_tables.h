@@ -1,5 +1,5 @@
 // The two tables of the ray-cast pass: the features that pick a box's shader variant, each with
-// the macro that shaders/raycast.frag.glsl tests, and the texture units its samplers read. The
+// the macro that shaders/march.glsl tests, and the texture units its samplers read. The
 // renderer (defines, program cache, texture bindings, sampler uniforms) and the tests read these
 // tables; nothing else names a feature macro or a texture unit.
 #pragma once
@@ -13,7 +13,7 @@
 namespace raywarp::gl {
 
 // A feature of a ray-cast variant. A variant has exactly one Sampling* feature, and either no cut
-// feature or Cut and exactly one of CutHollow, CutSolid, CutThick (raycast.frag.glsl checks it).
+// feature or Cut and exactly one of CutHollow, CutSolid, CutThick (march.glsl checks it).
 // Half precision is no feature: it changes the textures' formats, not the shader.
 enum class Feature {
   SamplingLinear,     // steps of u_step

@@ -32,6 +32,9 @@ struct Uniforms {
   void vec3(const char* name, const Eigen::Vector3d& v) const {
     glUniform3f(loc(name), float(v.x()), float(v.y()), float(v.z()));
   }
+  void vec4(const char* name, const Eigen::Vector4d& v) const {
+    glUniform4f(loc(name), float(v.x()), float(v.y()), float(v.z()), float(v.w()));
+  }
   void f1(const char* name, double x) const { glUniform1f(loc(name), float(x)); }
   void i1(const char* name, int x) const { glUniform1i(loc(name), x); }
 };
@@ -541,17 +544,18 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
     rc.vec3("u_def_spacing", deformation_step(b.data));
-    rc.mat4("u_texture_map", b.data.texture_map);
+    const Eigen::Matrix4d& map = b.data.texture_map;  // its rows: march.glsl's convention
+    rc.vec4("u_texture_map_x", map.row(0).transpose());
+    rc.vec4("u_texture_map_y", map.row(1).transpose());
+    rc.vec4("u_texture_map_z", map.row(2).transpose());
     rc.vec3("u_alpha_origin", alpha.origin);
     rc.vec3("u_alpha_size", alpha.extent());
     rc.vec3("u_alpha_spacing", alpha_step(b.data));
     if (variant.has(Feature::Cylindrical)) {
       const int a = b.data.cylindrical_axis;
-      Eigen::Matrix3d frame;
-      frame.row(0) = Eigen::Vector3d::Unit((a + 1) % 3);
-      frame.row(1) = Eigen::Vector3d::Unit((a + 2) % 3);
-      frame.row(2) = Eigen::Vector3d::Unit(a);
-      rc.mat3("u_cyl_frame", frame);
+      rc.vec3("u_cyl_e_u", Eigen::Vector3d::Unit((a + 1) % 3));
+      rc.vec3("u_cyl_e_v", Eigen::Vector3d::Unit((a + 2) % 3));
+      rc.vec3("u_cyl_e_a", Eigen::Vector3d::Unit(a));
     }
     rc.f1("u_thickness", b.data.shell_thickness);
     rc.f1("u_lipschitz", b.data.lipschitz);
@@ -573,11 +577,10 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
       const DepthCube& cube = b.data.depth_cube;
       for (int a = 0; a < 3; ++a) {
         const DepthMap& m = cube.maps[2 * a];
-        char name[32];
-        std::snprintf(name, sizeof name, "u_depth_origin[%d]", a);
-        glUniform2f(rc.loc(name), float(m.origin.x()), float(m.origin.y()));
-        std::snprintf(name, sizeof name, "u_depth_last[%d]", a);
-        glUniform2f(rc.loc(name), float(m.nu - 1), float(m.nv - 1));
+        const std::string axis(1, "xyz"[a]);
+        glUniform2f(rc.loc(("u_depth_origin_" + axis).c_str()), float(m.origin.x()),
+                    float(m.origin.y()));
+        glUniform2f(rc.loc(("u_depth_last_" + axis).c_str()), float(m.nu - 1), float(m.nv - 1));
       }
       const Eigen::Vector2i layer = cube.layer_size();
       glUniform2f(rc.loc("u_depth_layer"), float(layer.x()), float(layer.y()));

@@ -8,8 +8,9 @@
 //   and a malformed #include are an Error naming the file and line of the #include.
 // - Source-string numbers: GLSL's `#line N S` takes a number S, not a name. A ShaderFiles table
 //   numbers its files 1, 2, ... in the order of their names (the embedded table: shaders/*.glsl
-//   sorted by name, today camera.glsl 1, raster.frag.glsl 2, raster.vert.glsl 3,
-//   raycast.frag.glsl 4, raycast.vert.glsl 5, shading.glsl 6); number 0, "<preamble>", is what
+//   sorted by name, today camera.glsl 1, march.glsl 2, march_entry.frag.glsl 3, raster.frag.glsl
+//   4, raster.vert.glsl 5, raycast.frag.glsl 6, raycast.vert.glsl 7, shading.glsl 8); number 0,
+//   "<preamble>", is what
 //   the assembler writes before the first file: `#version 450 core` and the caller's #defines.
 // - #line: the assembler resolves the conditionals itself and drops comments and blank lines.
 //   Wherever the next line it keeps is not the line after the previous one in the same file (a

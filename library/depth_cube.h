@@ -118,7 +118,7 @@ std::uint64_t depth_cube_bytes(const Eigen::Vector3d& half_extents, int resoluti
 DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
                           Interrupter* interrupter = nullptr);
 
-// f(p) at p in the box's local frame, exactly as shaders/raycast.frag.glsl's distance_at with
+// f(p) at p in the box's local frame, exactly as shaders/march.glsl's distance_at with
 // RAYWARP_IMPLICIT 1 (in double).
 double depth_cube_value(const DepthCube& cube, const Eigen::Vector3d& p_box);
 

@@ -177,7 +177,7 @@ double implicit_value(const BoxTextures& b, const Eigen::Vector3d& p);
 Eigen::AlignedBox3d ray_cast_region(const BoxTextures& b);
 // How far from the cut empty-space skipping by the distance grid stops:
 // sqrt(3) (alpha texel + deformation texel / 2), covering the alpha map's interpolation error
-// and the cells of D next to the cut (see shaders/raycast.frag.glsl).
+// and the cells of D next to the cut (see shaders/march.glsl).
 double cut_margin(const BoxTextures& b);
 // Whether empty-space skipping can pay for a box when the scene asks for it (`requested`): inside
 // a cut it always can; by the distance grid only where the longest skip, background /

@@ -14,7 +14,7 @@ packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboo
           libtbb-dev libassimp-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0
           nlohmann-json3-dev libcli11-dev
           libstb-dev libgif-dev liblzma-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev
-          libglfw3-dev libimgui-dev libpng-dev libopenexr-dev
+          libglfw3-dev libimgui-dev libpng-dev libopenexr-dev glslang-dev libspirv-cross-c-shared-dev
           ${RAYWARP_EXTRA_PACKAGES:-})
 missing=()
 for p in "${packages[@]}"; do

@@ -360,7 +360,8 @@ TEST(ShaderVariants, TwistHasNoCutCodeAndBoxCutNoDeformationCode) {
       "%zu bytes, solid box cut %zu bytes (%ld lines); the source with every branch: %zu bytes "
       "before resolution\n",
       twist.size(), lines(twist), twist_jacobian.size(), cut.size(), lines(cut),
-      gl::embedded_shaders().at("raycast.frag.glsl").size());
+      gl::embedded_shaders().at("raycast.frag.glsl").size() +
+          gl::embedded_shaders().at("march.glsl").size());
 }
 
 gl::Context& context() {
@@ -401,18 +402,19 @@ TEST(ShaderAssembly, DriverErrorsNameTheFileAndLine) {
   EXPECT_TRUE(has(e, "shading.glsl:" + std::to_string(shade_line) + "(")) << e;
   EXPECT_TRUE(has(e, "undeclared_lambert")) << e;
 
-  // raycast.frag.glsl itself, near its end: in both variants the lines before it lose different
-  // conditional blocks.
-  const std::string frag = sources.at("raycast.frag.glsl");
-  const int discard_line = line_of(frag, "if (!hit) discard;");
-  ASSERT_GT(discard_line, 300);
-  const gl::ShaderFiles broken_frag =
-      with_broken_line("raycast.frag.glsl", discard_line, "  if (!hit) discard_this_fragment;");
+  // march.glsl, included by raycast.frag.glsl, near its end: in both variants the lines before
+  // it lose different conditional blocks.
+  const std::string march = sources.at("march.glsl");
+  const int miss_line = line_of(march, "if (!hit) return false;");
+  ASSERT_GT(miss_line, 300);
+  const gl::ShaderFiles broken_march =
+      with_broken_line("march.glsl", miss_line, "  if (!hit) return_this_fragment;");
   for (const std::string& defines : {twist, cut}) {
-    e = error_of(
-        [&] { gl::compile_shader(GL_FRAGMENT_SHADER, broken_frag, "raycast.frag.glsl", defines); });
-    EXPECT_TRUE(has(e, "raycast.frag.glsl:" + std::to_string(discard_line) + "(")) << e;
-    EXPECT_TRUE(has(e, "discard_this_fragment")) << e;
+    e = error_of([&] {
+      gl::compile_shader(GL_FRAGMENT_SHADER, broken_march, "raycast.frag.glsl", defines);
+    });
+    EXPECT_TRUE(has(e, "march.glsl:" + std::to_string(miss_line) + "(")) << e;
+    EXPECT_TRUE(has(e, "return_this_fragment")) << e;
   }
 
   // camera.glsl in a vertex shader, through link_program as the renderer compiles.

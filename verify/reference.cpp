@@ -34,7 +34,7 @@ Vec3 albedo_of(const RenderSettings& settings, HitKind kind) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The ray cast (Correa & Silver 2007, section 3), as in shaders/raycast.frag.glsl.
+// The ray cast (Correa & Silver 2007, section 3), as in shaders/march.glsl's raywarp_cast.
 
 // One sample of the ray, as the shader's Sample: f at the preimage (valid when it lies in the
 // box), and the alpha map A.

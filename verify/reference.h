@@ -1,6 +1,6 @@
 // Independent references for raywarp's GL renders.
 //
-// 1. reference_render: the same ray cast as shaders/raycast.frag.glsl, on the CPU in double,
+// 1. reference_render: the same ray cast as shaders/march.glsl, on the CPU in double,
 //    reading the same textures through Grid3::sample (GL_LINEAR semantics), composited with a
 //    CPU rasterisation of the mesh outside the boxes. It checks the shader against its
 //    specification.

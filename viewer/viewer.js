@@ -252,6 +252,7 @@
       mat4: (n, m) => gl.uniformMatrix4fv(loc(n), false, columnMajor(m)),
       mat3: (n, m) => gl.uniformMatrix3fv(loc(n), false, columnMajor(m)),
       vec3: (n, v) => gl.uniform3f(loc(n), v[0], v[1], v[2]),
+      vec4: (n, v) => gl.uniform4f(loc(n), v[0], v[1], v[2], v[3]),
       vec2: (n, x, y) => gl.uniform2f(loc(n), x, y),
       f1: (n, x) => gl.uniform1f(loc(n), x),
       i1: (n, x) => gl.uniform1i(loc(n), x),
@@ -549,7 +550,10 @@
         u.vec3('u_def_size', def.size);
         u.vec3('u_def_spacing', def.spacing);
       }
-      u.mat4('u_texture_map', b.textureMap);
+      // M by its rows (march.glsl's convention for matrices an engine fills).
+      u.vec4('u_texture_map_x', b.textureMap[0]);
+      u.vec4('u_texture_map_y', b.textureMap[1]);
+      u.vec4('u_texture_map_z', b.textureMap[2]);
       if (alpha) {
         u.vec3('u_alpha_origin', alpha.origin);
         u.vec3('u_alpha_size', alpha.size);
