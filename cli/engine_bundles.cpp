@@ -250,11 +250,33 @@ json box_uniform_values(const json& side) {
     json origin, size, spacing;
     double smallest = 0;
   };
+  // A cylindrical box's D (unless it moves nothing) and A are over (theta, r, h), in the units
+  // the sidecar's mapping gives.
+  const json& mapping = side.contains("mapping") ? side.at("mapping") : json::object();
+  const bool cylindrical = mapping.value("type", "cartesian") == "cylindrical";
+  const bool moves_nothing = render.value("moves_nothing", false);
+  auto over_cylinder = [&](const std::string& name) {
+    return cylindrical && (name == "alpha" || (name == "deformation" && !moves_nothing));
+  };
+  auto times_units = [&](const json& v, const std::string& name) {
+    if (!over_cylinder(name)) return times_h(v);
+    json out = json::array();
+    for (int a = 0; a < 3; ++a)
+      out.push_back(v.at(a).get<double>() * mapping.at("units").at(a).get<double>());
+    return out;
+  };
+  // The step of the shaders' central differences: a cylindrical texture's is its smallest of r's
+  // and h's spacings on every axis (library/textures.h, deformation_step).
+  auto difference_step = [&](const json& spacing, const std::string& name) {
+    if (!over_cylinder(name)) return spacing;
+    const double s = std::min(spacing[1].get<double>(), spacing[2].get<double>());
+    return json{s, s, s};
+  };
   auto grid = [&](const std::string& name) {
     const json& t = side.at("textures").at(name);
     Grid g;
-    g.origin = times_h(t.at("region").at("min"));
-    const json upper = times_h(t.at("region").at("max"));
+    g.origin = times_units(t.at("region").at("min"), name);
+    const json upper = times_units(t.at("region").at("max"), name);
     g.size = json::array();
     g.spacing = json::array();
     g.smallest = INFINITY;
@@ -277,6 +299,16 @@ json box_uniform_values(const json& side) {
   u["u_box_to_object"] = b2o;  // row-major; the module makes it a Matrix4
   u["u_box_to_object_dir"] = R;
   u["u_half_extents"] = h;
+  if (cylindrical) {
+    const int a = mapping.at("axis").get<std::string>()[0] - 'x';
+    for (const auto& [name, axis] :
+         {std::pair{"u_cyl_e_u", (a + 1) % 3}, std::pair{"u_cyl_e_v", (a + 2) % 3},
+          std::pair{"u_cyl_e_a", a}}) {
+      json e = {0.0, 0.0, 0.0};
+      e[axis] = 1.0;
+      u[name] = e;
+    }
+  }
   u["u_region_lower"] = times_h(render.at("ray_cast_region").at("min"));
   u["u_region_upper"] = times_h(render.at("ray_cast_region").at("max"));
   double voxel = 0;
@@ -294,7 +326,7 @@ json box_uniform_values(const json& side) {
     const Grid g = grid("deformation");
     u["u_def_origin"] = g.origin;
     u["u_def_size"] = g.size;
-    u["u_def_spacing"] = def_spacing = g.spacing;
+    u["u_def_spacing"] = def_spacing = difference_step(g.spacing, "deformation");
   }
   // H M H^-1, by its first three rows (the shaders' u_texture_map_x, _y, _z).
   const json& Ms = side.at("texture_map");
@@ -312,14 +344,15 @@ json box_uniform_values(const json& side) {
     const Grid g = grid("alpha");
     u["u_alpha_origin"] = g.origin;
     u["u_alpha_size"] = g.size;
-    u["u_alpha_spacing"] = g.spacing;
+    u["u_alpha_spacing"] = difference_step(g.spacing, "alpha");
     if (cut) {
       auto norm = [](const json& v) {
         double s = 0;
         for (const auto& x : v) s += x.get<double>() * x.get<double>();
         return std::sqrt(s);
       };
-      cut_margin = norm(g.spacing) + (def_spacing.is_null() ? 0.0 : 0.5 * norm(def_spacing));
+      cut_margin =
+          norm(u["u_alpha_spacing"]) + (def_spacing.is_null() ? 0.0 : 0.5 * norm(def_spacing));
     }
   }
   u["u_thickness"] = cut ? render.value("shell_thickness_voxels", 0.0) * voxel_side : 0.0;
@@ -367,12 +400,18 @@ json find_es_shaders(const fs::path& dir, const std::string& stem) {
 std::string threejs_module(const json& side, const std::string& stem, const std::vector<Tex>& texs,
                            const json& shaders) {
   json files = json::object(), tex_json = json::object();
+  // A cylindrical box's D (unless it moves nothing) and A repeat: their angle is periodic.
+  const bool cylindrical =
+      side.contains("mapping") && side.at("mapping").value("type", "") == "cylindrical";
+  const bool moves_nothing = side.at("render").value("moves_nothing", false);
   for (const Tex& t : texs) {
     tex_json[t.name] = {{"dims", t.info.at("dims")},
                         {"scale", t.info.at("scale")},
                         {"channels", t.info.value("channels", json::array())},
                         {"region", t.info.at("region")},
-                        {"nearest", is_nearest(t.name)}};
+                        {"nearest", is_nearest(t.name)},
+                        {"repeat", cylindrical && (t.name == "alpha" ||
+                                                   (t.name == "deformation" && !moves_nothing))}};
     if (const json* f = file_of(side, t.name, "ktx2")) files[t.name] = f->at("file");
   }
   json samplers = json::object();
@@ -384,7 +423,9 @@ std::string threejs_module(const json& side, const std::string& stem, const std:
      << "// Loads every texture of the box from its KTX2 file (plain vkFormat, so KTX2Loader "
         "makes\n"
      << "// a Data3DTexture: pixelDepth > 0) with LinearFilter (the step bounds NearestFilter),\n"
-     << "// ClampToEdgeWrapping on s, t and r, no mipmaps, NoColorSpace; decodes each texel to\n"
+     << "// ClampToEdgeWrapping on s, t and r (a cylindrical texture RepeatWrapping: its angle is\n"
+     << "// periodic, and the shader clamps radius and height), no mipmaps, NoColorSpace; decodes\n"
+     << "// each texel to\n"
      << "// object units (object = stored * scale[channel]); and, where raywarp wrote the GLSL ES\n"
      << "// 3.00 shaders beside the textures (`raywarp library`), builds the box's ray-cast\n"
      << "// RawShaderMaterial with every sidecar-derived uniform filled. See CHECKLIST.md.\n"
@@ -453,7 +494,8 @@ export async function loadRaywarpBox(options = {}) {
     const filter = TEXTURES[name].nearest ? THREE.NearestFilter : THREE.LinearFilter;
     t.magFilter = filter;
     t.minFilter = filter;
-    t.wrapS = t.wrapT = t.wrapR = THREE.ClampToEdgeWrapping;
+    t.wrapS = t.wrapT = t.wrapR =
+      TEXTURES[name].repeat ? THREE.RepeatWrapping : THREE.ClampToEdgeWrapping;
     t.generateMipmaps = false;
     t.colorSpace = THREE.NoColorSpace;
     t.flipY = false;

@@ -9,6 +9,7 @@
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/engine_bundles.h"
+#include "cli/engine_godot.h"
 #include "cli/engine_templates.h"
 #include "gl/shader_sources.h"
 #include "library/image.h"
@@ -43,7 +44,7 @@ std::string header(const MarchHlsl& m) {
 std::string march_sampler_name(const std::string& texture, bool cylindrical) {
   if (texture == "u_bricks" || texture == "u_sdf_bricks") return texture + "_point_clamp_sampler";
   if (cylindrical && (texture == "u_deformation" || texture == "u_alpha"))
-    return texture + "_linear_repeatU_clampV_clampW_sampler";
+    return texture + "_linear_repeat_sampler";  // march.glsl clamps r and h itself
   return texture + "_linear_clamp_sampler";
 }
 
@@ -296,6 +297,7 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
                                     const std::vector<std::string>& engines) {
   const MarchHlsl march = translate_march(variant);
   const nlohmann::json values = raycast_uniform_values(sidecar, settings);
+  const GodotFileNames godot = godot_file_names(stem);
   // Everything is made before anything is written.
   const std::vector<std::pair<std::string, std::string>> files = {
       {"unity/Shaders/Raywarp_" + stem + ".shader", unity_shader(march, values, stem)},
@@ -304,8 +306,14 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
       {"unreal/RaywarpCustomNode_" + stem + ".hlsl", unreal_custom_node(march, stem)},
       {"unreal/Raywarp_" + stem + ".ush",
        march_hlsl_struct(march, "RaywarpMarch_" + identifier(stem))},
+      {"godot/" + godot.box_shader, godot_box_shader(variant, values, stem)},
+      {"godot/" + godot.remainder_shader, godot_remainder_shader(1)},
+      {"godot/" + godot.import_script, godot_import_script(sidecar, stem)},
+      {"godot/" + godot.scene, godot_scene(sidecar, stem, values)},
   };
-  nlohmann::json out = {{"unity", nlohmann::json::array()}, {"unreal", nlohmann::json::array()}};
+  nlohmann::json out = {{"unity", nlohmann::json::array()},
+                        {"unreal", nlohmann::json::array()},
+                        {"godot", nlohmann::json::array()}};
   for (const auto& [name, text] : files) {
     const std::string engine = name.substr(0, name.find('/'));
     if (!engines.empty() && std::find(engines.begin(), engines.end(), engine) == engines.end())

@@ -26,7 +26,7 @@ struct MarchHlsl {
 // The sampler state an engine binds to a texture of the march: its name says the filter and the
 // wrap, which Unity reads from the name (inline sampler states): "u_sdf_linear_clamp_sampler",
 // "u_bricks_point_clamp_sampler" (read texel by texel),
-// "u_deformation_linear_repeatU_clampV_clampW_sampler" (cylindrical: the angle is periodic).
+// "u_deformation_linear_repeat_sampler" (cylindrical: the angle is periodic).
 std::string march_sampler_name(const std::string& texture, bool cylindrical);
 
 // Translates the variant's march. Throws Error with the translator's log when a step fails, or
@@ -75,7 +75,9 @@ std::string unreal_custom_node(const MarchHlsl& march, const std::string& stem);
 // files written per engine, relative to `root`:
 //   unity/Shaders/Raywarp_STEM.shader, unity/Shaders/raywarp_STEM.hlsl,
 //   unity/Shaders/RaywarpUnity.hlsl, unreal/RaywarpCustomNode_STEM.hlsl (the Custom node's code),
-//   unreal/Raywarp_STEM.ush (the march as a struct, for a plugin's Shaders folder)
+//   unreal/Raywarp_STEM.ush (the march as a struct, for a plugin's Shaders folder),
+//   godot/STEM.gdshader, godot/STEM.remainder.gdshader, godot/raywarp_import_STEM.gd,
+//   godot/STEM.tscn (cli/engine_godot.h)
 // Only the files of `engines` (empty: all) are written. Throws Error when the translation fails;
 // nothing is then written.
 nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,

@@ -17,7 +17,9 @@ namespace fs = std::filesystem;
 BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh) {
   BakeJob job = make_job(scene, index, std::move(mesh));
   job.texture_bits = 32;
-  job.sampling = "bounded";  // bakes the step bounds where the box can use them
+  // The step bounds where the box can use them (a cylindrical texture has none: no Lipschitz
+  // bound of its D is measured, and bounded tracing refuses it).
+  if (!scene.boxes[index].mapping.cylindrical) job.sampling = "bounded";
   if (job.spec.implicit.type == "depth_cube") job.spec.implicit.type = "sdf";
   return job;
 }
@@ -116,13 +118,6 @@ void check_box(const Scene& scene, const fs::path& scene_file, int only) {
     throw Error("--box " + std::to_string(only) + ": " + scene_file.string() + " has " +
                 std::to_string(scene.boxes.size()) + " boxes (0 to " +
                 std::to_string(int(scene.boxes.size()) - 1) + ")");
-  // Engines read exported textures over the box's (x, y, z): refused before anything is baked.
-  for (size_t i = 0; i < scene.boxes.size(); ++i)
-    if ((only < 0 || static_cast<int>(i) == only) && scene.boxes[i].mapping.cylindrical)
-      throw Error(scene_file.string() + ": boxes[" + std::to_string(i) +
-                  "].mapping.type = \"cylindrical\": export writes textures over the box's (x, y, "
-                  "z), as engines read them; bake this box with mapping \"cartesian\" to export "
-                  "it");
 }
 
 // The scene's ray-cast variants as standalone GLSL, and what each engine needs to import a box

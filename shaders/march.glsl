@@ -132,6 +132,13 @@ vec3 cylindrical(vec3 p) {
   vec3 q = vec3(dot(u_cyl_e_u, p), dot(u_cyl_e_v, p), dot(u_cyl_e_a, p));
   return vec3(atan(q.y, q.x), length(q.xy), q.z);
 }
+// A texture coordinate over (theta, r, h) clamped to the texel centres along r and h: the clamp to
+// edge done here, so that the sampler may repeat on every axis (an engine such as Godot has one
+// wrap mode per texture), the angle alone being periodic.
+vec3 cylinder_clamp(vec3 tc, ivec3 dims) {
+  vec2 half_texel = 0.5 / vec2(dims.yz);
+  return vec3(tc.x, clamp(tc.yz, half_texel, vec2(1.0) - half_texel));
+}
 vec3 cartesian(vec3 c) { return c.y * cos(c.x) * u_cyl_e_u + c.y * sin(c.x) * u_cyl_e_v + c.z * u_cyl_e_a; }
 #endif
 #ifndef RAYWARP_MOVES_NOTHING
@@ -142,7 +149,7 @@ vec4 deformation(vec3 p_def) {
   vec3 c = cylindrical(p_def);
   vec3 tc = (c - u_def_origin) / u_def_size;
   if (tc.y > 1.0 || tc.z < 0.0 || tc.z > 1.0) return vec4(0.0);
-  vec4 t = textureLod(u_deformation, tc, 0.0);
+  vec4 t = textureLod(u_deformation, cylinder_clamp(tc, textureSize(u_deformation, 0)), 0.0);
   return vec4(cartesian(c + t.xyz) - p_def, t.w);
 #else
   return textureLod(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size, 0.0);
@@ -152,7 +159,8 @@ vec4 deformation(vec3 p_def) {
 #ifdef RAYWARP_CUT
 float alpha_at(vec3 p_def) {
 #ifdef RAYWARP_CYLINDRICAL
-  return textureLod(u_alpha, (cylindrical(p_def) - u_alpha_origin) / u_alpha_size, 0.0).r;
+  vec3 tc = (cylindrical(p_def) - u_alpha_origin) / u_alpha_size;
+  return textureLod(u_alpha, cylinder_clamp(tc, textureSize(u_alpha, 0)), 0.0).r;
 #else
   return textureLod(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size, 0.0).r;
 #endif

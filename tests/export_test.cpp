@@ -125,6 +125,7 @@ TEST_P(ExportTest, ReimportedTexturesRenderTheSameImage) {
     EXPECT_EQ(back.box.half_extents, orig.box.half_extents);
     EXPECT_EQ(back.texture_map, orig.texture_map);  // exactly: the identity stays the identity
     EXPECT_EQ(back.has_cut, orig.has_cut);
+    EXPECT_EQ(back.cylindrical_axis, orig.cylindrical_axis);
     EXPECT_EQ(back.moves_nothing, orig.moves_nothing);
     EXPECT_LT((back.region.min() - orig.region.min()).norm(), 1e-9);
     EXPECT_LT((back.region.max() - orig.region.max()).norm(), 1e-9);
@@ -156,7 +157,8 @@ TEST_P(ExportTest, ReimportedTexturesRenderTheSameImage) {
 
 INSTANTIATE_TEST_SUITE_P(Examples, ExportTest,
                          ::testing::Values("bunny_twist.json", "bunny_cut_solid.json",
-                                           "bunny_peel.json"),
+                                           "bunny_peel.json", "bunny_twist720_cylindrical.json",
+                                           "bunny_groove.json"),
                          [](const auto& info) {
                            std::string n = fs::path(info.param).stem().string();
                            return n;

@@ -2,13 +2,14 @@
 // GLSL makes a cbuffer's members loose uniforms (row-major matrices read through transpose), the
 // origin of SV_Position upper-left, and bad sources are errors naming them. No GL: the images
 // that prove the translation right are tests/engine_shaders_test.cpp's.
+#include "translate/translate.h"
+
 #include <gtest/gtest.h>
 
 #include <functional>
 #include <string>
 
 #include "base/error.h"
-#include "translate/translate.h"
 
 using raywarp::Error;
 using namespace raywarp::translate;
@@ -50,10 +51,10 @@ TEST(Translate, GlslToHlslKeepsFunctionsUniformsAndNamesSamplers) {
   HlslOptions options;
   options.sampler_names["u_sdf"] = "u_sdf_linear_clamp_sampler";
   const std::string hlsl = spirv_to_hlsl(glsl_to_spirv(kGlsl, Stage::Fragment, "k.glsl"), options);
-  for (const char* word : {"float distance_at(float3 p)", "bool march(float3 o, out float t)",
-                           "uniform float u_step;", "uniform float4 u_row_x;",
-                           "Texture3D<float4> u_sdf;", "SamplerState u_sdf_linear_clamp_sampler;",
-                           "SampleLevel(u_sdf_linear_clamp_sampler"})
+  for (const char* word :
+       {"float distance_at(float3 p)", "bool march(float3 o, out float t)", "uniform float u_step;",
+        "uniform float4 u_row_x;", "Texture3D<float4> u_sdf;",
+        "SamplerState u_sdf_linear_clamp_sampler;", "SampleLevel(u_sdf_linear_clamp_sampler"})
     EXPECT_TRUE(has(hlsl, word)) << word << "\n" << hlsl;
   EXPECT_FALSE(has(hlsl, "register(")) << "no bindings: an engine assigns its own\n" << hlsl;
 }
@@ -78,10 +79,31 @@ float4 main(float4 position : SV_Position) : SV_Target0 {
   EXPECT_FALSE(has(glsl, "raywarp_loose_block")) << glsl;
 }
 
+// An image read with a sampler and queried without one (GetDimensions, Load) is one sampler uniform
+// in GLSL, the one a renderer binds by the image's name.
+TEST(Translate, HlslImageSampledAndQueriedIsOneGlslSampler) {
+  const char* hlsl = R"(
+Texture3D<float4> u_alpha;
+SamplerState u_alpha_sampler;
+float4 main(float4 position : SV_Position) : SV_Target0 {
+  uint w, h, d;
+  u_alpha.GetDimensions(w, h, d);
+  return u_alpha.SampleLevel(u_alpha_sampler, position.xyz / float(w), 0.0) +
+         u_alpha.Load(int4(0, 0, int(d) - 1, 0));
+}
+)";
+  const std::string glsl = spirv_to_glsl(hlsl_to_spirv(hlsl, Stage::Fragment, "main", "q.hlsl"));
+  EXPECT_TRUE(has(glsl, "uniform sampler3D u_alpha;")) << glsl;
+  EXPECT_TRUE(has(glsl, "textureSize(u_alpha, 0)")) << glsl;
+  EXPECT_FALSE(has(glsl, "raywarp_unsampled")) << glsl;
+  EXPECT_FALSE(has(glsl, "Dummy")) << glsl;
+}
+
 TEST(Translate, BadSourcesAreErrorsNamingThem) {
-  std::string e = error_of(
-      [] { glsl_to_spirv("#version 450 core\nvoid main() { undeclared = 1; }\n", Stage::Fragment,
-                         "broken.glsl"); });
+  std::string e = error_of([] {
+    glsl_to_spirv("#version 450 core\nvoid main() { undeclared = 1; }\n", Stage::Fragment,
+                  "broken.glsl");
+  });
   EXPECT_TRUE(has(e, "broken.glsl: does not compile (glslang, GLSL)")) << e;
   EXPECT_TRUE(has(e, "undeclared")) << e;
   e = error_of([] {

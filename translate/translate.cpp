@@ -180,9 +180,22 @@ std::string spirv_to_glsl(const Spirv& spirv) {
   const spvc_combined_image_sampler* combined = nullptr;
   size_t n = 0;
   cross.check(spvc_compiler_get_combined_image_samplers(c, &combined, &n), "combine samplers");
+  // Each combined sampler is named after its image. An image read both with a sampler and without
+  // one (textureSize, texelFetch: the dummy sampler) gets two; the dummy one is then merged into
+  // the other after translation, so that one sampler uniform reads the image.
+  std::set<spvc_variable_id> sampled;
   for (size_t i = 0; i < n; ++i)
-    spvc_compiler_set_name(c, combined[i].combined_id,
-                           spvc_compiler_get_name(c, combined[i].image_id));
+    if (combined[i].sampler_id != dummy) sampled.insert(combined[i].image_id);
+  std::vector<std::pair<std::string, std::string>> merged;  // (dummy's name, image's name)
+  for (size_t i = 0; i < n; ++i) {
+    const std::string image = spvc_compiler_get_name(c, combined[i].image_id);
+    if (combined[i].sampler_id == dummy && sampled.count(combined[i].image_id)) {
+      merged.emplace_back("raywarp_unsampled_" + image, image);
+      spvc_compiler_set_name(c, combined[i].combined_id, merged.back().first.c_str());
+    } else {
+      spvc_compiler_set_name(c, combined[i].combined_id, image.c_str());
+    }
+  }
   // Each uniform buffer's variable gets a name of ours, so that its members can be made loose.
   // Its row-major matrices (HLSL's) are uploaded column-major once loose (glUniformMatrix*fv), so
   // every use of one reads transpose(NAME).
@@ -207,6 +220,10 @@ std::string spirv_to_glsl(const Spirv& spirv) {
   // rows count from the top.
   if (upper_left && text.find("gl_FragCoord") != std::string::npos)
     text.insert(text.find('\n') + 1, "layout(origin_upper_left) in vec4 gl_FragCoord;\n");
+  for (const auto& [unsampled, image] : merged) {
+    text = std::regex_replace(text, std::regex("uniform \\w+ " + unsampled + ";\\n"), "");
+    text = replace_word(text, unsampled, image);
+  }
   std::set<std::string> loose;
   for (const std::string& block : blocks) {
     // `struct T\n{\n    MEMBERS\n};\n\nuniform T block;` -> `uniform MEMBER;` lines.

@@ -259,7 +259,7 @@
     };
   }
 
-  function upload3d(tex, object, floatLinear, nearest) {
+  function upload3d(tex, object, floatLinear, nearest, repeat) {
     const t = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_3D, t);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
@@ -279,8 +279,9 @@
     const filter = nearest ? gl.NEAREST : gl.LINEAR;
     gl.texParameteri(gl.TEXTURE_3D, gl.TEXTURE_MIN_FILTER, filter);
     gl.texParameteri(gl.TEXTURE_3D, gl.TEXTURE_MAG_FILTER, filter);
+    // A cylindrical texture repeats (its angle is periodic; the shader clamps r and h itself).
     for (const wrap of [gl.TEXTURE_WRAP_S, gl.TEXTURE_WRAP_T, gl.TEXTURE_WRAP_R])
-      gl.texParameteri(gl.TEXTURE_3D, wrap, gl.CLAMP_TO_EDGE);
+      gl.texParameteri(gl.TEXTURE_3D, wrap, repeat ? gl.REPEAT : gl.CLAMP_TO_EDGE);
     const err = gl.getError();
     if (err !== gl.NO_ERROR) throw new Error('cannot create a ' + w + 'x' + h + 'x' + d + ' 3D texture (GL error ' + err + ')');
     return t;
@@ -318,6 +319,15 @@
       const vl = render.step_bounds.validity_lipschitz_box_units / Math.max(h[0], h[1], h[2]);
       b.invLipschitzW = vl > 0 ? 1.0 / vl : 0.0;
     }
+    // A cylindrical box's D (unless it moves nothing) and A are over (theta, r, h) in the units of
+    // the sidecar's mapping; their differences step by their smallest of r's and h's spacings.
+    const cylindrical = side.mapping && side.mapping.type === 'cylindrical';
+    const overCylinder = (name) => cylindrical && (name === 'alpha' || (name === 'deformation' && !b.movesNothing));
+    if (cylindrical) {
+      const a = 'xyz'.indexOf(side.mapping.axis);
+      const unit = (k) => [0, 1, 2].map((i) => (i === k ? 1 : 0));
+      b.cylinder = { u: unit((a + 1) % 3), v: unit((a + 2) % 3), a: unit(a) };
+    }
     // Each texture's grid in the box frame, and its texels in object units.
     b.grids = {};
     b.textures = {};
@@ -327,9 +337,12 @@
     for (const name of Object.keys(wanted)) {
       const t = side.textures[name];
       if (!t) continue;
-      const origin = mul3(t.region.min, h), upper = mul3(t.region.max, h);
+      const units = overCylinder(name) ? side.mapping.units : h;
+      const origin = mul3(t.region.min, units), upper = mul3(t.region.max, units);
       const size = sub(upper, origin);
-      b.grids[name] = { origin, size, spacing: div3(size, t.dims), dims: t.dims };
+      let spacing = div3(size, t.dims);
+      if (overCylinder(name)) spacing = [0, 0, 0].fill(Math.min(spacing[1], spacing[2]));
+      b.grids[name] = { origin, size, spacing, dims: t.dims };
       if (name === 'deformation' && b.movesNothing) continue;  // the renderer uploads none
       if (name === 'alpha' && !b.hasCut) continue;
       if (name.startsWith('step_bounds') && !shaders.defines.includes('RAYWARP_SAMPLING_BOUNDED')) continue;
@@ -343,7 +356,8 @@
                           t.dims.join('x') + 'x' + t.scale.length);
         const object = new Float32Array(k.values.length);
         for (let i = 0; i < object.length; ++i) object[i] = k.values[i] * t.scale[i % k.channels];
-        b.textures[wanted[name]] = upload3d(k, object, floatLinear, name.startsWith('step_bounds'));
+        b.textures[wanted[name]] = upload3d(k, object, floatLinear, name.startsWith('step_bounds'),
+                                            overCylinder(name));
         b.half = b.half || k.half;
       }));
     }
@@ -549,6 +563,11 @@
         u.vec3('u_def_origin', def.origin);
         u.vec3('u_def_size', def.size);
         u.vec3('u_def_spacing', def.spacing);
+      }
+      if (b.cylinder) {
+        u.vec3('u_cyl_e_u', b.cylinder.u);
+        u.vec3('u_cyl_e_v', b.cylinder.v);
+        u.vec3('u_cyl_e_a', b.cylinder.a);
       }
       // M by its rows (march.glsl's convention for matrices an engine fills).
       u.vec4('u_texture_map_x', b.textureMap[0]);
