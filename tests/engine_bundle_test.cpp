@@ -242,7 +242,30 @@ namespace UnityEngine {
   public enum TextureFormat { RHalf, RGHalf, RGBAHalf, RFloat, RGFloat, RGBAFloat }
   public enum TextureWrapMode { Repeat, Clamp }
   public enum FilterMode { Point, Bilinear, Trilinear }
-  public class Object {}
+  public class Object { public string name; public static void DestroyImmediate(Object o) {} }
+  public struct Vector3 { public Vector3(float x, float y, float z) {} }
+  public struct Bounds { public Bounds(Vector3 centre, Vector3 size) {} }
+  public static class Mathf { public static float HalfToFloat(ushort h) { return 0; } }
+  public class Shader : Object { public static Shader Find(string name) { return null; } }
+  public class Material : Object {
+    public Material(Shader s) {}
+    public void SetTexture(string name, Texture t) {}
+  }
+  public class Component : Object {
+    public T GetComponent<T>() { return default(T); }
+    public Transform transform;
+  }
+  public class Transform : Component { public void SetParent(Transform p, bool keep) {} }
+  public class Collider : Component {}
+  public class Renderer : Component { public Material sharedMaterial; public Bounds localBounds; }
+  public class MeshRenderer : Renderer {}
+  public enum PrimitiveType { Sphere, Capsule, Cylinder, Cube, Plane, Quad }
+  public class GameObject : Object {
+    public GameObject(string name) {}
+    public Transform transform;
+    public T GetComponent<T>() { return default(T); }
+    public static GameObject CreatePrimitive(PrimitiveType t) { return null; }
+  }
   public class Texture : Object {
     public int width, height; public TextureWrapMode wrapMode; public FilterMode filterMode;
     public int anisoLevel;
@@ -253,10 +276,16 @@ namespace UnityEngine {
     public void SetPixelData<T>(T[] data, int mipLevel, int sourceDataStartIndex = 0) {}
     public void Apply(bool updateMipmaps, bool makeNoLongerReadable) {}
   }
-  public static class Debug { public static void Log(object m) {} }
+  public static class Debug {
+    public static void Log(object m) {}
+    public static void LogError(object m) {}
+  }
 }
 namespace UnityEditor {
   public class MenuItem : System.Attribute { public MenuItem(string p) {} }
+  public static class PrefabUtility {
+    public static UnityEngine.GameObject SaveAsPrefabAsset(UnityEngine.GameObject o, string p) { return o; }
+  }
   public static class AssetDatabase {
     public static void CreateAsset(UnityEngine.Object o, string p) {}
     public static void SaveAssets() {}
