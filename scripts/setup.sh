@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs what raywarp needs from Debian 12's archive (only what is missing), then configures
-# and builds. zlib, blosc and Imath headers are listed because OpenVDB's CMake module needs
+# and builds. glslang-tools is listed because glslang-dev's CMake package names its executables. zlib, blosc and Imath headers are listed because OpenVDB's CMake module needs
 # them and libopenvdb-dev does not pull them in; libegl-mesa0 is Mesa's EGL driver (llvmpipe
 # without a GPU), which libegl1 only recommends.
 # Usage: scripts/setup.sh [BUILD_DIR] [extra cmake arguments...]
@@ -14,7 +14,8 @@ packages=(cmake g++ make pkg-config xz-utils libeigen3-dev libopenvdb-dev libboo
           libtbb-dev libassimp-dev libosmesa6-dev libgl-dev libegl-dev libegl-mesa0
           nlohmann-json3-dev libcli11-dev
           libstb-dev libgif-dev liblzma-dev libgtest-dev zlib1g-dev libblosc-dev libimath-dev
-          libglfw3-dev libimgui-dev libpng-dev libopenexr-dev glslang-dev libspirv-cross-c-shared-dev
+          libglfw3-dev libimgui-dev libpng-dev libopenexr-dev glslang-dev glslang-tools
+          libspirv-cross-c-shared-dev
           ${RAYWARP_EXTRA_PACKAGES:-})
 missing=()
 for p in "${packages[@]}"; do
