@@ -153,7 +153,11 @@ nlohmann::json raycast_uniform_values(const nlohmann::json& sidecar,
   u["u_albedo"] = rgb(settings.colour);
   u["u_inside_colour"] = rgb(settings.inside_colour);
   u["u_cut_colour"] = rgb(settings.cut_colour);
-  if (u.at("u_lipschitz").get<double>() < 0.0) u["u_lipschitz"] = 1e30;
+  if (u.at("u_lipschitz").get<double>() < 0.0)
+    u["u_lipschitz"] = 1e30;
+  else if (sidecar.contains("animation"))  // a bound for every M the animation takes
+    u["u_lipschitz"] =
+        u["u_lipschitz"].get<double>() + sidecar.at("animation").value("lipschitz_add", 0.0);
   // [R | c] by rows, and its inverse [R^T | -R^T c].
   const nlohmann::json& R = sidecar.at("box").at("rotation");
   const nlohmann::json& c = sidecar.at("box").at("centre");
@@ -295,7 +299,12 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
                                     const std::filesystem::path& root, const std::string& stem,
                                     const gl::Variant& variant, const RenderSettings& settings,
                                     const std::vector<std::string>& engines) {
-  const MarchHlsl march = translate_march(variant);
+  // A box an animation drives through M reads its textures through M in every engine.
+  gl::Variant animated = variant;
+  if (sidecar.contains("animation") && !variant.has(gl::Feature::SamplingBounded) &&
+      !variant.has(gl::Feature::MovesNothing) && !variant.has(gl::Feature::Cylindrical))
+    animated.add(gl::Feature::TextureMap);
+  const MarchHlsl march = translate_march(animated);
   const nlohmann::json values = raycast_uniform_values(sidecar, settings);
   const GodotFileNames godot = godot_file_names(stem);
   // Everything is made before anything is written.
@@ -306,7 +315,7 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
       {"unreal/RaywarpCustomNode_" + stem + ".hlsl", unreal_custom_node(march, stem)},
       {"unreal/Raywarp_" + stem + ".ush",
        march_hlsl_struct(march, "RaywarpMarch_" + identifier(stem))},
-      {"godot/" + godot.box_shader, godot_box_shader(variant, values, stem)},
+      {"godot/" + godot.box_shader, godot_box_shader(animated, values, stem)},
       {"godot/" + godot.remainder_shader, godot_remainder_shader(1)},
       {"godot/" + godot.import_script, godot_import_script(sidecar, stem)},
       {"godot/" + godot.scene, godot_scene(sidecar, stem, values)},

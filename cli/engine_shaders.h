@@ -52,7 +52,8 @@ std::vector<std::string> march_members(const MarchHlsl& march);
 // u_max_steps, u_refine_steps, u_threshold, u_fine_factor, u_epsilon; the colours as u_albedo,
 // u_inside_colour, u_cut_colour), and the rigid maps between raywarp's object space and the box
 // frame by rows (u_box_to_object_x/_y/_z, u_object_to_box_x/_y/_z: vec4s, the last column the
-// translation). An unknown Lipschitz bound (-1 in the sidecar) is 1e30.
+// translation). An unknown Lipschitz bound (-1 in the sidecar) is 1e30; a box an animation drives
+// through M (the sidecar's "animation") has the bound for every M it takes.
 nlohmann::json raycast_uniform_values(const nlohmann::json& sidecar,
                                       const RenderSettings& settings);
 
@@ -78,7 +79,9 @@ std::string unreal_custom_node(const MarchHlsl& march, const std::string& stem);
 //   unreal/Raywarp_STEM.ush (the march as a struct, for a plugin's Shaders folder),
 //   godot/STEM.gdshader, godot/STEM.remainder.gdshader, godot/raywarp_import_STEM.gd,
 //   godot/STEM.tscn (cli/engine_godot.h)
-// Only the files of `engines` (empty: all) are written. Throws Error when the translation fails;
+// A box the sidecar says an animation drives through M ("animation", cli/export.h) gets the variant
+// with RAYWARP_TEXTURE_MAP, M's rows being material properties. Only the files of `engines`
+// (empty: all) are written. Throws Error when the translation fails;
 // nothing is then written.
 nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
                                     const std::filesystem::path& root, const std::string& stem,

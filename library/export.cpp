@@ -372,6 +372,7 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
     side["mapping"] = {{"type", "cartesian"}};
   }
   side["texture_map"] = matrix(map_to_box_units(tex.texture_map, h));
+  if (!source.animation.is_null()) side["animation"] = source.animation;
   side["texture_map_meaning"] =
       "M of Correa & Silver eq. 2, box units, row-major, column vectors: D is read at M p'";
   side["reuse"] = kReuse;

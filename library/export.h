@@ -50,6 +50,9 @@ struct ExportSource {
   std::string mesh;        // the mesh file's name
   std::string mesh_hash;   // of its bytes (bake cache hash)
   std::string input_hash;  // export_input_hash
+  // How an engine animates the box through the map M with no bake (null: it cannot), written to
+  // the sidecar as it is (cli/export.h, export_animation).
+  nlohmann::json animation;
 };
 // The source of box `index` of `scene`, whose parsed file is `document`.
 ExportSource export_source(const Scene& scene, const nlohmann::json& document, size_t index,

@@ -33,6 +33,7 @@
 #include "library/bake_cache.h"
 #include "library/image.h"
 #include "library/scene.h"
+#include "library/texture_map.h"
 #include "tests/engine_scenes.h"
 #include "tests/run_raywarp.h"
 #include "translate/translate.h"
@@ -147,11 +148,15 @@ struct RoundTrip {
 };
 
 // Renders `scene` natively and through the HLSL round trip in `form`.
-RoundTrip round_trip(const Scene& scene, Form form, int width, int height) {
+// `map` (if any) changes the prepared boxes before they are drawn (a texture map M).
+using MapBoxes = std::function<void(const Scene&, std::vector<BoxTextures>&)>;
+
+RoundTrip round_trip(const Scene& scene, Form form, int width, int height, const MapBoxes& map) {
   std::ostringstream log;
   BakeCache cache(fs::path(RAYWARP_BUILD_DIR) / "test-cache");
-  const PreparedScene prepared = prepare_scene(scene, log, &cache);
-  const std::vector<BoxTextures> boxes = prepared.textures();
+  const PreparedScene prepared = prepare_scene(scene, log, &cache, bool(map));
+  std::vector<BoxTextures> boxes = prepared.textures();
+  if (map) map(scene, boxes);
   context();
   gl::Renderer renderer;
   renderer.set_mesh(prepared.mesh());
@@ -192,6 +197,7 @@ Scene example(const std::string& name, const std::function<void(nlohmann::json&)
 struct Case {
   std::string name;
   std::function<Scene()> scene;
+  MapBoxes map;  // baked with D's texel centres on the lower faces, then mapped
 };
 void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
 
@@ -200,13 +206,24 @@ std::vector<Case> cases() {
   for (const auto& e : fs::directory_iterator(fs::path(RAYWARP_SOURCE_DIR) / "examples"))
     if (e.path().extension() == ".json") {
       const std::string file = e.path().filename().string();
-      out.push_back({file, [file] { return example(file); }});
+      out.push_back({file, [file] { return example(file); }, {}});
     }
   std::sort(out.begin(), out.end(), [](const Case& a, const Case& b) { return a.name < b.name; });
   // Beyond the examples: the cut modes and mappings they do not combine, a depth cube, bounded
   // sampling, two boxes (tests/engine_scenes.h).
   for (const raywarp::testing::ExtraScene& e : raywarp::testing::extra_scenes())
-    out.push_back({e.name, [e] { return example(e.example, e.edit); }});
+    out.push_back({e.name, [e] { return example(e.example, e.edit); }, {}});
+  // The animation an engine drives through M (the sidecar's "animation"): the head's 360-degree
+  // twist shown at 150 degrees by M, no bake.
+  out.push_back({"head_twist_at_150_by_m", [] { return example("bunny_head_twist.json"); },
+                 [](const Scene& scene, std::vector<BoxTextures>& boxes) {
+                   BoxSpec spec = scene.boxes[0];
+                   spec.deformer.angle_deg = 150.0;
+                   const TextureMapping m = twist_angle_mapping(spec, boxes[0], 360.0);
+                   boxes[0].texture_map = m.map;
+                   boxes[0].region = m.region;
+                   boxes[0].lipschitz = m.lipschitz;
+                 }});
   return out;
 }
 
@@ -224,7 +241,7 @@ TEST_P(EngineRoundTrip, HlslDrawsTheNativeImage) {
   for (Form form : {Form::Include, Form::Struct, Form::UnrealNode}) {
     RoundTrip r;
     try {
-      r = round_trip(scene, form, w, h);
+      r = round_trip(scene, form, w, h, c.map);
     } catch (const Error& e) {
       FAIL() << c.name << " (" << form_name(form) << "): " << e.what();
     }
@@ -450,6 +467,42 @@ TEST(EngineSelection, PicksTheBundlesAndRefusesTexturesOverAnEnginesLimit) {
                                           &log),
             0)
       << log;
+}
+
+}  // namespace
+
+namespace {
+
+// A box whose only deformer is a twist or a peel is exported for animation through M: D's texel
+// centres on the lower faces, the sidecar's "animation" rule, and engine shaders whose M rows are
+// material properties (the head_twist_at_150_by_m round trip draws such an M); a composition is
+// not.
+TEST(EngineAnimation, TwistsAndPeelsExportForAnAnimationThroughM) {
+  const fs::path out = fs::path(RAYWARP_BUILD_DIR) / "test-engine-animation";
+  fs::remove_all(out);
+  for (const char* scene : {"bunny_head_twist", "bunny_peel", "bunny_twist_bend"}) {
+    std::string log;
+    ASSERT_EQ(raywarp::testing::run_raywarp(
+                  "bake " + std::string(RAYWARP_SOURCE_DIR) + "/examples/" + scene +
+                      ".json --out " + out.string() + " --format dds --engines unity,godot",
+                  &log),
+              0)
+        << log;
+    const std::string stem = std::string(scene) + "_box0";
+    const nlohmann::json side = nlohmann::json::parse(read_text(out / (stem + ".json")));
+    const std::string unity =
+        read_text(out / (stem + ".engines/unity/Shaders/Raywarp_" + stem + ".shader"));
+    const std::string godot = read_text(out / (stem + ".engines/godot/" + stem + ".gdshader"));
+    const bool animated = std::string(scene) != "bunny_twist_bend";
+    EXPECT_EQ(side.contains("animation"), animated) << scene;
+    EXPECT_EQ(unity.find("u_texture_map_x (") != std::string::npos, animated) << scene;
+    EXPECT_EQ(godot.find("uniform vec4 u_texture_map_x") != std::string::npos, animated) << scene;
+    if (!animated) continue;
+    EXPECT_EQ(side["animation"]["parameter"],
+              std::string(scene) == "bunny_peel" ? "hinge" : "angle_deg");
+    EXPECT_EQ(side["animation"]["axis"], std::string(scene) == "bunny_peel" ? "x" : "y")
+        << side["animation"];
+  }
 }
 
 }  // namespace
