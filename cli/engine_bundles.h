@@ -51,6 +51,13 @@ inline constexpr EngineLimit kEngineLimits[] = {
 // Throws Error naming --engines, the word and the names allowed.
 std::vector<std::string> parse_engines(const std::string& list);
 
+// Unreal 5's editor script of a box (template engines/unreal/import.py): imports the atlases as
+// volume textures and, when `inputs` (the Custom node's, [kind, name, value] each: see the
+// template) is not empty, makes the material around the node's code. Written as
+// STEM.engines/unreal/import_STEM.py.
+std::string unreal_import_script(const nlohmann::json& sidecar, const std::string& stem,
+                                 const nlohmann::json& inputs);
+
 // The ray-cast variant of the exported box and the scene's render settings: with them, the bundles
 // also carry the engines' shaders (cli/engine_shaders.h: Unity's ShaderLab shader and HLSL
 // include, Unreal's Custom node code).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <map>
 #include <regex>
 #include <sstream>
 
@@ -295,6 +296,48 @@ std::string unreal_custom_node(const MarchHlsl& march, const std::string& stem) 
                        {{"STEM", identifier(stem)}, {"STRUCT", structure}, {"FILL", fill}});
 }
 
+nlohmann::json unreal_material_inputs(const MarchHlsl& march, const nlohmann::json& sidecar,
+                                      const nlohmann::json& values) {
+  static const std::map<std::string, std::string> texture_of = {
+      {"u_sdf", "distance"},
+      {"u_deformation", "deformation"},
+      {"u_alpha", "alpha"},
+      {"u_bricks", "step_bounds_d"},
+      {"u_sdf_bricks", "step_bounds_sdf"}};
+  // The volumes hold the stored values: the node decodes them by the sidecar's scales.
+  const nlohmann::json& textures = sidecar.at("textures");
+  auto scale = [&](const char* texture) -> nlohmann::json {
+    return textures.contains(texture) ? textures.at(texture).at("scale") : nlohmann::json{1.0};
+  };
+  const std::map<std::string, nlohmann::json> decode = {{"u_def_decode", scale("deformation")},
+                                                        {"u_sdf_decode", scale("distance")[0]},
+                                                        {"u_alpha_decode", scale("alpha")[0]}};
+  const std::map<std::string, std::string> colour = {
+      {"Albedo", "u_albedo"}, {"InsideColour", "u_inside_colour"}, {"CutColour", "u_cut_colour"}};
+  nlohmann::json inputs = nlohmann::json::array();
+  for (const auto& [type, name] : unreal_node_inputs(march)) {
+    if (type == "SamplerState") continue;  // comes with its Texture Object
+    if (type.rfind("Texture", 0) == 0) {
+      if (!texture_of.count(name)) throw Error("Unreal material: no texture for " + name);
+      inputs.push_back({"texture", name, texture_of.at(name)});
+    } else if (name == "PixelWorld") {
+      inputs.push_back({"pixel_world", name, nullptr});
+    } else if (name == "CameraWorld") {
+      inputs.push_back({"camera_world", name, nullptr});
+    } else if (name.rfind("WorldToBox", 0) == 0) {
+      inputs.push_back({"world_to_box", name, nullptr});
+    } else if (name.rfind("BoxToWorld", 0) == 0) {
+      inputs.push_back({"box_to_world", name, nullptr});
+    } else if (colour.count(name)) {
+      inputs.push_back({"vector", name, values.at(colour.at(name))});
+    } else {
+      const nlohmann::json v = decode.count(name) ? decode.at(name) : values.at(name);
+      inputs.push_back({type == "float" ? "scalar" : "vector", name, v});
+    }
+  }
+  return inputs;
+}
+
 nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
                                     const std::filesystem::path& root, const std::string& stem,
                                     const gl::Variant& variant, const RenderSettings& settings,
@@ -315,6 +358,8 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
       {"unreal/RaywarpCustomNode_" + stem + ".hlsl", unreal_custom_node(march, stem)},
       {"unreal/Raywarp_" + stem + ".ush",
        march_hlsl_struct(march, "RaywarpMarch_" + identifier(stem))},
+      {"unreal/import_" + stem + ".py",
+       unreal_import_script(sidecar, stem, unreal_material_inputs(march, sidecar, values))},
       {"godot/" + godot.box_shader, godot_box_shader(animated, values, stem)},
       {"godot/" + godot.remainder_shader, godot_remainder_shader(1)},
       {"godot/" + godot.import_script, godot_import_script(sidecar, stem)},

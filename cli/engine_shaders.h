@@ -72,11 +72,19 @@ std::vector<std::pair<std::string, std::string>> unreal_node_inputs(const MarchH
 // struct filled from the inputs. `stem` is made an identifier for the struct's name.
 std::string unreal_custom_node(const MarchHlsl& march, const std::string& stem);
 
+// The inputs of the Custom node as Unreal's material script makes them (engines/unreal/import.py,
+// INPUTS): [kind, name, value] per input of unreal_node_inputs but the samplers, the values from
+// `values` (raycast_uniform_values) but the decode factors, which are the sidecar's scales (the
+// volumes hold the stored values).
+nlohmann::json unreal_material_inputs(const MarchHlsl& march, const nlohmann::json& sidecar,
+                                      const nlohmann::json& values);
+
 // Writes the engines' shaders of one exported box into `root` (STEM.engines/), and returns the
 // files written per engine, relative to `root`:
 //   unity/Shaders/Raywarp_STEM.shader, unity/Shaders/raywarp_STEM.hlsl,
 //   unity/Shaders/RaywarpUnity.hlsl, unreal/RaywarpCustomNode_STEM.hlsl (the Custom node's code),
 //   unreal/Raywarp_STEM.ush (the march as a struct, for a plugin's Shaders folder),
+//   unreal/import_STEM.py (the import script with the material: unreal_import_script),
 //   godot/STEM.gdshader, godot/STEM.remainder.gdshader, godot/raywarp_import_STEM.gd,
 //   godot/STEM.tscn (cli/engine_godot.h)
 // A box the sidecar says an animation drives through M ("animation", cli/export.h) gets the variant

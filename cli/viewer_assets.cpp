@@ -113,6 +113,12 @@ const std::map<std::string, UniformDoc>& uniform_docs() {
         "the rows of H M_s H^-1 with H = diag(h, 1) and M_s = sidecar texture_map (box units, "
         "row-major)"}},
       {"u_texture_map_y", {"row 1 of M", "see u_texture_map_x"}},
+      {"u_def_decode",
+       {"per channel, object units per stored unit of u_deformation",
+        "1 when the texture is uploaded decoded (object = stored * scale); else "
+        "textures.deformation.scale"}},
+      {"u_sdf_decode", {"object units per stored unit of u_sdf", "1, or textures.distance.scale"}},
+      {"u_alpha_decode", {"object units per stored unit of u_alpha", "1, or textures.alpha.scale"}},
       {"u_texture_map_z", {"row 2 of M", "see u_texture_map_x"}},
       {"u_cyl_e_u",
        {"cylindrical textures: the box axis after the cylinder's axis a, e_(a+1)%3",

@@ -544,6 +544,10 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
     rc.vec3("u_def_origin", def.origin);
     rc.vec3("u_def_size", def.extent());
     rc.vec3("u_def_spacing", deformation_step(b.data));
+    // The textures are uploaded in object units: no decode in the shader.
+    rc.vec4("u_def_decode", Eigen::Vector4d::Ones());
+    rc.f1("u_sdf_decode", 1.0);
+    rc.f1("u_alpha_decode", 1.0);
     const Eigen::Matrix4d& map = b.data.texture_map;  // its rows: march.glsl's convention
     rc.vec4("u_texture_map_x", map.row(0).transpose());
     rc.vec4("u_texture_map_y", map.row(1).transpose());

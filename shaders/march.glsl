@@ -41,6 +41,7 @@ uniform vec2 u_depth_layer;       // texels of a layer (each map lies in its low
 uniform sampler3D u_sdf;          // f > 0 inside, object units
 uniform vec3 u_sdf_origin;        // lower corner of the grid region
 uniform vec3 u_sdf_size;          // dims * spacing
+uniform float u_sdf_decode;       // object units per stored unit (1 when uploaded decoded)
 #endif
 uniform float u_sdf_spacing;      // the implicit's voxel (depth cube: its maps' texel)
 uniform float u_background;       // |f| of an invalid sample (grid: beyond its narrow band)
@@ -53,6 +54,7 @@ uniform sampler3D u_deformation;  // xyz: D(p') (p = p' + D), w: validity
 uniform vec3 u_def_origin;
 uniform vec3 u_def_size;
 uniform vec3 u_def_spacing;       // texel sides per axis
+uniform vec4 u_def_decode;        // per channel, object units per stored unit (1 when decoded)
 #endif
 #ifdef RAYWARP_TEXTURE_MAP
 uniform vec4 u_texture_map_x;     // the rows of M (eq. 2): D is read at M p'
@@ -69,6 +71,7 @@ uniform sampler3D u_alpha;        // A(p') > 0 inside the cut: a signed distance
 uniform vec3 u_alpha_origin;
 uniform vec3 u_alpha_size;
 uniform vec3 u_alpha_spacing;
+uniform float u_alpha_decode;     // object units per stored unit (1 when uploaded decoded)
 #endif
 #ifdef RAYWARP_CUT_THICK
 uniform float u_thickness;        // tau of eq. 7
@@ -114,7 +117,9 @@ float distance_at(vec3 p) {
   return inside ? nearest : -nearest;
 }
 #else
-float distance_at(vec3 p) { return textureLod(u_sdf, (p - u_sdf_origin) / u_sdf_size, 0.0).r; }
+float distance_at(vec3 p) {
+  return textureLod(u_sdf, (p - u_sdf_origin) / u_sdf_size, 0.0).r * u_sdf_decode;
+}
 #endif
 bool in_box(vec3 p) { return all(lessThanEqual(abs(p), u_half_extents)); }
 // Where the textures are read: M p' (eq. 2's mapping), or p'.
@@ -149,10 +154,12 @@ vec4 deformation(vec3 p_def) {
   vec3 c = cylindrical(p_def);
   vec3 tc = (c - u_def_origin) / u_def_size;
   if (tc.y > 1.0 || tc.z < 0.0 || tc.z > 1.0) return vec4(0.0);
-  vec4 t = textureLod(u_deformation, cylinder_clamp(tc, textureSize(u_deformation, 0)), 0.0);
+  vec4 t = textureLod(u_deformation, cylinder_clamp(tc, textureSize(u_deformation, 0)), 0.0) *
+           u_def_decode;
   return vec4(cartesian(c + t.xyz) - p_def, t.w);
 #else
-  return textureLod(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size, 0.0);
+  return textureLod(u_deformation, (texture_point(p_def) - u_def_origin) / u_def_size, 0.0) *
+         u_def_decode;
 #endif
 }
 #endif
@@ -160,9 +167,10 @@ vec4 deformation(vec3 p_def) {
 float alpha_at(vec3 p_def) {
 #ifdef RAYWARP_CYLINDRICAL
   vec3 tc = (cylindrical(p_def) - u_alpha_origin) / u_alpha_size;
-  return textureLod(u_alpha, cylinder_clamp(tc, textureSize(u_alpha, 0)), 0.0).r;
+  return textureLod(u_alpha, cylinder_clamp(tc, textureSize(u_alpha, 0)), 0.0).r * u_alpha_decode;
 #else
-  return textureLod(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size, 0.0).r;
+  return textureLod(u_alpha, (texture_point(p_def) - u_alpha_origin) / u_alpha_size, 0.0).r *
+         u_alpha_decode;
 #endif
 }
 #endif

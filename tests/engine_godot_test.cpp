@@ -125,7 +125,10 @@ json all_values() {
           {"u_depth_last_z", {31.0, 31.0}},
           {"u_albedo", {0.8, 0.62, 0.45}},
           {"u_inside_colour", {0.3, 0.42, 0.62}},
-          {"u_cut_colour", {0.75, 0.18, 0.16}}};
+          {"u_cut_colour", {0.75, 0.18, 0.16}},
+          {"u_def_decode", {1.0, 1.0, 1.0, 1.0}},
+          {"u_sdf_decode", 1.0},
+          {"u_alpha_decode", 1.0}};
 }
 
 // An export's uniform values as gl/renderer.cpp sets them, under the default render settings.

@@ -435,6 +435,22 @@ TEST(EngineSelection, PicksTheBundlesAndRefusesTexturesOverAnEnginesLimit) {
   const fs::path bundles = out / "bunny_cut_solid_box0.engines";
   EXPECT_TRUE(fs::exists(bundles / "unity/Shaders/Raywarp_bunny_cut_solid_box0.shader"));
   EXPECT_TRUE(fs::exists(bundles / "unreal/RaywarpCustomNode_bunny_cut_solid_box0.hlsl"));
+  // Unreal's script makes the material: the node's inputs, the decode factors the sidecar's scales.
+  const std::string py = read_text(bundles / "unreal/import_bunny_cut_solid_box0.py");
+  const std::string marker = "INPUTS = json.loads(r" + std::string(3, '\'');
+  const std::string inputs_json = py.substr(py.find(marker) + marker.size());
+  const nlohmann::json inputs =
+      nlohmann::json::parse(inputs_json.substr(0, inputs_json.find(std::string(3, '\''))));
+  const nlohmann::json side = nlohmann::json::parse(read_text(out / "bunny_cut_solid_box0.json"));
+  int textures = 0;
+  for (const auto& in : inputs) {
+    textures += in[0] == "texture";
+    if (in[1] == "u_alpha_decode") EXPECT_EQ(in[2], side["textures"]["alpha"]["scale"][0]);
+  }
+  EXPECT_EQ(textures, 2);  // a box cut's distance grid and alpha map
+  const std::string compile =
+      "python3 -m py_compile " + (bundles / "unreal/import_bunny_cut_solid_box0.py").string();
+  EXPECT_EQ(std::system(compile.c_str()), 0) << compile;
   EXPECT_FALSE(fs::exists(bundles / "threejs"));
   EXPECT_FALSE(fs::exists(bundles / "godot"));
 

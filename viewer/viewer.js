@@ -558,6 +558,10 @@
       u.vec3('u_sdf_origin', sdf.origin);
       u.vec3('u_sdf_size', sdf.size);
       u.f1('u_sdf_spacing', voxel);
+      // Uploaded in object units (decoded at load): no decode in the shader.
+      u.vec4('u_def_decode', [1, 1, 1, 1]);
+      u.f1('u_sdf_decode', 1);
+      u.f1('u_alpha_decode', 1);
       u.f1('u_background', b.background);
       if (def) {
         u.vec3('u_def_origin', def.origin);
