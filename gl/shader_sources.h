@@ -9,8 +9,8 @@
 // - Source-string numbers: GLSL's `#line N S` takes a number S, not a name. A ShaderFiles table
 //   numbers its files 1, 2, ... in the order of their names (the embedded table: shaders/*.glsl
 //   sorted by name, today camera.glsl 1, march.glsl 2, march_entry.frag.glsl 3, raster.frag.glsl
-//   4, raster.vert.glsl 5, raycast.frag.glsl 6, raycast.vert.glsl 7, shading.glsl 8); number 0,
-//   "<preamble>", is what
+//   4, raster.vert.glsl 5, raycast.frag.glsl 6, raycast.vert.glsl 7, shading.glsl 8, then the
+//   tetrahedral route's tet_*.glsl 9 to 16); number 0, "<preamble>", is what
 //   the assembler writes before the first file: `#version 450 core` and the caller's #defines.
 // - #line: the assembler resolves the conditionals itself and drops comments and blank lines.
 //   Wherever the next line it keeps is not the line after the previous one in the same file (a
