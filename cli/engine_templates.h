@@ -1,5 +1,5 @@
 // The templates of the engine bundles: every file under engines/ (shaders, scripts and scenes in
-// the engines' own languages), embedded at build time by scripts/embed_templates.cmake, and their
+// the engines' own languages), embedded at build time by scripts/embed_files.cmake, and their
 // filling. A placeholder is @NAME@ (capitals, digits and underscores).
 #pragma once
 #include <map>
