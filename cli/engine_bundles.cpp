@@ -32,6 +32,7 @@ struct TextureRole {
 };
 constexpr TextureRole kRoles[] = {{"deformation", "u_deformation", false},
                                   {"distance", "u_sdf", false},
+                                  {"depth", "u_depth", false},
                                   {"alpha", "u_alpha", false},
                                   {"step_bounds_d", "u_bricks", true},
                                   {"step_bounds_sdf", "u_sdf_bricks", true}};
@@ -129,9 +130,11 @@ std::string common_checklist(const json& side, const std::string& stem,
      << "| texture | dims (x y z) | region min (box units) | region max | channels (object = "
         "stored * scale) | read |\n| --- | --- | --- | --- | --- | --- |\n";
   for (const Tex& t : texs)
-    md << "| `" << t.name << "` | " << csv(t.dims()) << " | " << num(t.info.at("region").at("min"))
-       << " | " << num(t.info.at("region").at("max")) << " | " << quoted_channels(t) << " | "
-       << (is_nearest(t.name) ? "NEAREST" : "LINEAR") << " |\n";
+    md << "| `" << t.name << "` | " << csv(t.dims()) << " | "
+       << (t.info.contains("region") ? num(t.info.at("region").at("min"))
+                                     : "none: six maps, sidecar `depth_cube`")
+       << " | " << (t.info.contains("region") ? num(t.info.at("region").at("max")) : "") << " | "
+       << quoted_channels(t) << " | " << (is_nearest(t.name) ? "NEAREST" : "LINEAR") << " |\n";
   md << "\nMeanings:\n\n";
   for (const Tex& t : texs)
     md << "- `" << t.name << "` (" << t.info.value("frame", std::string("?"))
@@ -326,6 +329,23 @@ json box_uniform_values(const json& side) {
     voxel = g.smallest;
     u["u_sdf_spacing"] = voxel;
   }
+  if (side.contains("depth_cube")) {  // the depth cube's maps, per axis (their -face's)
+    const json& dc = side.at("depth_cube");
+    voxel = 2.0 * hmax / dc.at("resolution").get<double>();
+    u["u_sdf_spacing"] = voxel;
+    for (int a = 0; a < 3; ++a) {
+      const json& m = dc.at("maps").at(2 * a);
+      const int ua = m.at("u_axis").get<std::string>()[0] - 'x';
+      const int va = m.at("v_axis").get<std::string>()[0] - 'x';
+      const std::string axis(1, "xyz"[a]);
+      u["u_depth_origin_" + axis] = {m.at("origin")[0].get<double>() * h[ua],
+                                     m.at("origin")[1].get<double>() * h[va]};
+      u["u_depth_last_" + axis] = {m.at("texels")[0].get<int>() - 1,
+                                   m.at("texels")[1].get<int>() - 1};
+    }
+    const json& dims = tx.at("depth").at("dims");
+    u["u_depth_layer"] = {dims[0], dims[1]};
+  }
   const double voxel_side = render.value("voxel_box_units", 0.0) * hmax;
   u["u_background"] = render.value("distance_background_voxels", 0.0) * voxel_side;
   json def_spacing;
@@ -415,7 +435,7 @@ std::string threejs_module(const json& side, const std::string& stem, const std:
     tex_json[t.name] = {{"dims", t.info.at("dims")},
                         {"scale", t.info.at("scale")},
                         {"channels", t.info.value("channels", json::array())},
-                        {"region", t.info.at("region")},
+                        {"region", t.info.value("region", json())},
                         {"nearest", is_nearest(t.name)},
                         {"repeat", cylindrical && (t.name == "alpha" ||
                                                    (t.name == "deformation" && !moves_nothing))}};
@@ -579,7 +599,7 @@ std::string unreal_import_script(const json& side, const std::string& stem, cons
                 {"tile_size", {a->at("size")[0].get<int>() / tx, a->at("size")[1].get<int>() / ty}},
                 {"dims", t.info.at("dims")},
                 {"scale", t.info.at("scale")},
-                {"region", t.info.at("region")},
+                {"region", t.info.value("region", json())},
                 {"nearest", is_nearest(t.name)},
                 {"repeat", cylindrical &&
                                (t.name == "alpha" || (t.name == "deformation" && !moves_nothing))}};
@@ -716,6 +736,9 @@ json write_engine_bundles(const json& side, const fs::path& dir, const std::stri
         {"u_sdf_size", "(region.max - region.min) * h"},
         {"u_sdf_spacing", "min(u_sdf_size / dims): the voxel"},
         {"u_background", "render.distance_background_voxels * voxel_box_units * max(h)"},
+        {"u_depth_origin_x", "depth_cube.maps[2a].origin * (h[u_axis], h[v_axis]) (_y, _z)"},
+        {"u_depth_last_x", "depth_cube.maps[2a].texels - 1 (_y, _z)"},
+        {"u_depth_layer", "textures.depth.dims[0], dims[1]"},
         {"u_def_origin", "textures.deformation.region.min * h"},
         {"u_def_size", "(region.max - region.min) * h"},
         {"u_def_spacing", "u_def_size / dims"},

@@ -27,6 +27,7 @@ struct TextureRole {
 };
 constexpr TextureRole kRoles[] = {{"deformation", "u_deformation"},
                                   {"distance", "u_sdf"},
+                                  {"depth", "u_depth"},
                                   {"alpha", "u_alpha"},
                                   {"step_bounds_d", "u_bricks"},
                                   {"step_bounds_sdf", "u_sdf_bricks"}};

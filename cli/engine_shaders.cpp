@@ -299,19 +299,17 @@ std::string unreal_custom_node(const MarchHlsl& march, const std::string& stem) 
 nlohmann::json unreal_material_inputs(const MarchHlsl& march, const nlohmann::json& sidecar,
                                       const nlohmann::json& values) {
   static const std::map<std::string, std::string> texture_of = {
-      {"u_sdf", "distance"},
-      {"u_deformation", "deformation"},
-      {"u_alpha", "alpha"},
-      {"u_bricks", "step_bounds_d"},
-      {"u_sdf_bricks", "step_bounds_sdf"}};
+      {"u_sdf", "distance"}, {"u_depth", "depth"},          {"u_deformation", "deformation"},
+      {"u_alpha", "alpha"},  {"u_bricks", "step_bounds_d"}, {"u_sdf_bricks", "step_bounds_sdf"}};
   // The volumes hold the stored values: the node decodes them by the sidecar's scales.
   const nlohmann::json& textures = sidecar.at("textures");
   auto scale = [&](const char* texture) -> nlohmann::json {
     return textures.contains(texture) ? textures.at(texture).at("scale") : nlohmann::json{1.0};
   };
-  const std::map<std::string, nlohmann::json> decode = {{"u_def_decode", scale("deformation")},
-                                                        {"u_sdf_decode", scale("distance")[0]},
-                                                        {"u_alpha_decode", scale("alpha")[0]}};
+  const std::map<std::string, nlohmann::json> decode = {
+      {"u_def_decode", scale("deformation")},
+      {"u_sdf_decode", textures.contains("depth") ? scale("depth")[0] : scale("distance")[0]},
+      {"u_alpha_decode", scale("alpha")[0]}};
   const std::map<std::string, std::string> colour = {
       {"Albedo", "u_albedo"}, {"InsideColour", "u_inside_colour"}, {"CutColour", "u_cut_colour"}};
   nlohmann::json inputs = nlohmann::json::array();

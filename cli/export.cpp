@@ -51,8 +51,9 @@ BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh) {
   job.texture_bits = 32;
   // The step bounds where the box can use them (a cylindrical texture has none: no Lipschitz
   // bound of its D is measured, and bounded tracing refuses it).
-  if (!scene.boxes[index].mapping.cylindrical) job.sampling = "bounded";
-  if (job.spec.implicit.type == "depth_cube") job.spec.implicit.type = "sdf";
+  // A depth cube has none either: its |f| bounds no distance.
+  if (!scene.boxes[index].mapping.cylindrical && job.spec.implicit.type != "depth_cube")
+    job.sampling = "bounded";
   return job;
 }
 
@@ -73,8 +74,17 @@ void check_engine_limits(const Scene& scene, const fs::path& scene_file,
       const char* field;
       int resolution;
     };
-    std::vector<Texture> textures = {
-        {"distance", t.sdf.grid.dims, "implicit.resolution", spec.implicit.resolution}};
+    std::vector<Texture> textures;
+    if (t.uses_depth_cube) {
+      const DepthCube::Layers l = t.depth_cube.layers();
+      textures.push_back({"depth",
+                          {l.width, l.height, DepthCube::Layers::kDepth},
+                          "implicit.resolution",
+                          spec.implicit.resolution});
+    } else {
+      textures.push_back(
+          {"distance", t.sdf.grid.dims, "implicit.resolution", spec.implicit.resolution});
+    }
     if (!t.moves_nothing)
       textures.push_back({"deformation", t.deformation.grid.dims, "deformation_resolution",
                           spec.deformation_resolution});
@@ -117,10 +127,6 @@ std::vector<nlohmann::json> export_boxes(const fs::path& scene_file, const nlohm
   for (size_t i = 0; i < scene.boxes.size(); ++i) {
     if (only >= 0 && static_cast<int>(i) != only) continue;
     const std::string tag = "box " + std::to_string(i) + ": ";
-    if (scene.boxes[i].implicit.type == "depth_cube")
-      log << tag
-          << "the scene asks for a depth cube; the export bakes and carries a distance "
-             "grid instead\n";
     baked_boxes.push_back(bake_logged(session, export_job(scene, i, mesh), log, tag));
     indices.push_back(i);
   }

@@ -106,7 +106,7 @@ inline constexpr TextureUnitInfo kTextureUnits[] = {
     {TextureUnit::Alpha, "u_alpha", GL_TEXTURE_3D},              // A of a cut
     {TextureUnit::Bricks, "u_bricks", GL_TEXTURE_3D},            // bounds of |I + J_D| per brick
     {TextureUnit::SdfBricks, "u_sdf_bricks", GL_TEXTURE_3D},     // bounds of |grad f| per brick
-    {TextureUnit::DepthCube, "u_depth", GL_TEXTURE_2D_ARRAY},    // the six faces, a layer each
+    {TextureUnit::DepthCube, "u_depth", GL_TEXTURE_3D},          // the six faces, a slice each
 };
 static_assert(std::size(kTextureUnits) == kTextureUnitCount, "one kTextureUnits row per unit");
 constexpr bool units_in_order() {

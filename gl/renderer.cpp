@@ -55,36 +55,6 @@ GLuint upload_3d(GLenum internal, GLenum format, const Eigen::Vector3i& dims, co
   return tex;
 }
 
-// A depth cube's six maps as one 2D array texture of 6 layers (R32F or R16F), map k in the lower
-// corner of layer k; the padding repeats the map's last row and column, so that a read a
-// rounding error past its last texel centre still sees clamp-to-edge.
-GLuint upload_depth_cube(const DepthCube& cube, GLenum internal) {
-  const Eigen::Vector2i size = cube.layer_size();
-  const size_t layer = static_cast<size_t>(size.x()) * size.y();
-  std::vector<float> texels(layer * 6);
-  for (int k = 0; k < 6; ++k) {
-    const DepthMap& m = cube.maps[k];
-    for (int j = 0; j < size.y(); ++j)
-      for (int i = 0; i < size.x(); ++i)
-        texels[k * layer + static_cast<size_t>(j) * size.x() + i] =
-            m.at(std::min(i, m.nu - 1), std::min(j, m.nv - 1));
-  }
-  GLuint tex = 0;
-  glGenTextures(1, &tex);
-  glBindTexture(GL_TEXTURE_2D_ARRAY, tex);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage3D(GL_TEXTURE_2D_ARRAY, 0, internal, size.x(), size.y(), 6, 0, GL_RED, GL_FLOAT,
-               texels.data());
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  for (GLenum wrap : {GL_TEXTURE_WRAP_S, GL_TEXTURE_WRAP_T})
-    glTexParameteri(GL_TEXTURE_2D_ARRAY, wrap, GL_CLAMP_TO_EDGE);
-  if (glGetError() != GL_NO_ERROR)
-    throw Error("OpenGL: cannot create a " + std::to_string(size.x()) + "x" +
-                std::to_string(size.y()) + "x6 2D array texture (depth cube)");
-  return tex;
-}
-
 struct BoxGpu {
   BoxTextures data;  // box, grids' mappings (the texel arrays are on the GPU)
   GLuint textures[kTextureUnitCount] = {};  // by TextureUnit; 0: the box has none there
@@ -393,7 +363,10 @@ void Renderer::set_boxes(const std::vector<const BoxTextures*>& boxes) {
         m = b.depth_cube.maps[k];
         m.depth.clear();
       }
-      gpu.texture(TextureUnit::DepthCube) = upload_depth_cube(b.depth_cube, r_format);
+      const DepthCube::Layers layers = b.depth_cube.layers();
+      gpu.texture(TextureUnit::DepthCube) = upload_3d(
+          r_format, GL_RED, Eigen::Vector3i(layers.width, layers.height, DepthCube::Layers::kDepth),
+          b.depth_cube.layer_texels().data());
       gpu.bytes = b.depth_cube.texture_bytes(static_cast<int>(channel_bytes));
     } else {
       gpu.texture(TextureUnit::Sdf) =
@@ -586,8 +559,8 @@ Image Renderer::render(const Camera& camera, int width, int height, const Render
                     float(m.origin.y()));
         glUniform2f(rc.loc(("u_depth_last_" + axis).c_str()), float(m.nu - 1), float(m.nv - 1));
       }
-      const Eigen::Vector2i layer = cube.layer_size();
-      glUniform2f(rc.loc("u_depth_layer"), float(layer.x()), float(layer.y()));
+      const DepthCube::Layers layers = cube.layers();
+      glUniform2f(rc.loc("u_depth_layer"), float(layers.width), float(layers.height));
     }
     for (const TextureUnitInfo& t : kTextureUnits) {
       glActiveTexture(GL_TEXTURE0 + unit_number(t.unit));

@@ -207,15 +207,51 @@ double DepthMap::distance_from_face(const Eigen::Vector3d& p) const {
   return half_extent - side * p[axis];
 }
 
-Eigen::Vector2i DepthCube::layer_size() const {
-  Eigen::Vector2i size(1, 1);
-  for (const DepthMap& m : maps) size = size.cwiseMax(Eigen::Vector2i(m.nu, m.nv));
-  return size;
+DepthCube::Layers DepthCube::layers() const {
+  Layers l;
+  l.width = l.height = 1;
+  for (const DepthMap& m : maps)
+    l.width = std::max(l.width, m.nu), l.height = std::max(l.height, m.nv);
+  return l;
+}
+
+std::vector<float> DepthCube::layer_texels() const {
+  const Layers l = layers();
+  const size_t slice = static_cast<size_t>(l.width) * l.height;
+  std::vector<float> texels(slice * Layers::kDepth);
+  for (int k = 0; k < Layers::kDepth; ++k) {
+    const DepthMap& m = maps[std::min(k, 5)];
+    if (m.depth.size() != static_cast<size_t>(m.nu) * m.nv)
+      throw Error("depth cube: map " + std::to_string(k) + " holds no " + std::to_string(m.nu) +
+                  "x" + std::to_string(m.nv) + " texels");
+    for (int j = 0; j < l.height; ++j)
+      for (int i = 0; i < l.width; ++i)
+        texels[k * slice + static_cast<size_t>(j) * l.width + i] =
+            m.at(std::min(i, m.nu - 1), std::min(j, m.nv - 1));
+  }
+  return texels;
+}
+
+void DepthCube::set_depths_from_layers(const std::vector<float>& texels) {
+  const Layers l = layers();
+  const size_t slice = static_cast<size_t>(l.width) * l.height;
+  if (texels.size() != slice * Layers::kDepth)
+    throw Error("depth cube: " + std::to_string(texels.size()) + " texels, not " +
+                std::to_string(l.width) + "x" + std::to_string(l.height) + "x" +
+                std::to_string(Layers::kDepth));
+  for (int k = 0; k < 6; ++k) {
+    DepthMap& m = maps[k];
+    m.depth.resize(static_cast<size_t>(m.nu) * m.nv);
+    for (int j = 0; j < m.nv; ++j)
+      for (int i = 0; i < m.nu; ++i)
+        m.depth[static_cast<size_t>(j) * m.nu + i] =
+            texels[k * slice + static_cast<size_t>(j) * l.width + i];
+  }
 }
 
 std::uint64_t DepthCube::texture_bytes(int bytes_per_texel) const {
-  const Eigen::Vector2i size = layer_size();
-  return std::uint64_t(size.x()) * std::uint64_t(size.y()) * 6 * bytes_per_texel;
+  const Layers l = layers();
+  return std::uint64_t(l.width) * std::uint64_t(l.height) * Layers::kDepth * bytes_per_texel;
 }
 
 long DepthCube::map_texels() const {
@@ -234,20 +270,16 @@ Eigen::Vector3i depth_cube_dims(const Eigen::Vector3d& half_extents, int resolut
 
 std::uint64_t depth_cube_bytes(const Eigen::Vector3d& half_extents, int resolution) {
   const Eigen::Vector3i n = depth_cube_dims(half_extents, resolution);
-  // Layers of (largest u count) x (largest v count): u is x or y, v is y or z.
+  // 8 slices of (largest u count) x (largest v count) (DepthCube::layers); u is x or y, v y or z.
   const std::uint64_t w = std::max(n.x(), n.y()), h = std::max(n.y(), n.z());
-  return w * h * 6 * sizeof(float);
+  return w * h * DepthCube::Layers::kDepth * sizeof(float);
 }
 
-DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
-                          Interrupter* interrupter) {
+DepthCube depth_cube_layout(const Eigen::Vector3d& h, int resolution) {
   if (resolution < 1 || resolution > 65536)
     throw Error("implicit.resolution = " + std::to_string(resolution) +
                 ": a depth cube needs a resolution in [1, 65536]");
-  const auto start = std::chrono::steady_clock::now();
-  raywarp::poll(interrupter, "depth cube", 0.0);
   DepthCube cube;
-  const Eigen::Vector3d& h = box.half_extents;
   cube.half_extents = h;
   cube.spacing = 2.0 * h.maxCoeff() / resolution;
   cube.far_depth = static_cast<float>(kFarDepthBoxes * 2.0 * h.maxCoeff());
@@ -264,6 +296,15 @@ DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
     m.origin = -0.5 * cube.spacing * Eigen::Vector2d(m.nu, m.nv);
     m.depth.assign(static_cast<size_t>(m.nu) * m.nv, cube.far_depth);
   }
+  return cube;
+}
+
+DepthCube bake_depth_cube(const Mesh& mesh, const Box& box, int resolution,
+                          Interrupter* interrupter) {
+  const auto start = std::chrono::steady_clock::now();
+  raywarp::poll(interrupter, "depth cube", 0.0);
+  DepthCube cube = depth_cube_layout(box.half_extents, resolution);
+  const Eigen::Vector3d& h = box.half_extents;
 
   std::vector<Eigen::Vector3d> local(static_cast<size_t>(mesh.V.rows()));
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
@@ -425,7 +466,7 @@ double depth_cube_value(const DepthCube& cube, const Eigen::Vector3d& p) {
 }
 
 std::string describe(const DepthCube& cube) {
-  const Eigen::Vector2i layer = cube.layer_size();
+  const DepthCube::Layers layers = cube.layers();
   const std::string fallbacks =
       cube.texels.winding_fallbacks
           ? ", " + std::to_string(cube.texels.winding_fallbacks) + " by winding number (open mesh)"
@@ -433,12 +474,12 @@ std::string describe(const DepthCube& cube) {
   char buf[320];
   std::snprintf(
       buf, sizeof buf,
-      "depth cube: 6 maps (x %dx%d, y %dx%d, z %dx%d) in a %dx%dx6 array, texel %.4g, "
+      "depth cube: 6 maps (x %dx%d, y %dx%d, z %dx%d) in a %dx%dx8 texture, texel %.4g, "
       "%.2f MiB; texels: %ld surface, %ld inside, %ld empty (%ld of them dilated)%s (%.2f s)",
       cube.maps[0].nu, cube.maps[0].nv, cube.maps[2].nu, cube.maps[2].nv, cube.maps[4].nu,
-      cube.maps[4].nv, layer.x(), layer.y(), cube.spacing, cube.texture_bytes() / double(1 << 20),
-      cube.texels.surface, cube.texels.inside, cube.texels.empty, cube.texels.dilated,
-      fallbacks.c_str(), cube.bake_seconds);
+      cube.maps[4].nv, layers.width, layers.height, cube.spacing,
+      cube.texture_bytes() / double(1 << 20), cube.texels.surface, cube.texels.inside,
+      cube.texels.empty, cube.texels.dilated, fallbacks.c_str(), cube.bake_seconds);
   return buf;
 }
 

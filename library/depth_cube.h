@@ -91,10 +91,22 @@ struct DepthCube {
   double bake_seconds = 0.0;
 
   bool empty() const { return maps[0].depth.empty(); }
-  // The GPU layout: one 2D array texture of 6 layers of layer_size() texels (the largest map's
-  // u and v counts), each map in its layer's lower corner.
-  Eigen::Vector2i layer_size() const;
-  // Bytes of the 6-layer array texture at `bytes_per_texel` (4 for R32F, 2 for R16F).
+  // The texture layout, on raywarp's GPU and in exports alike: one 3D texture of width x height
+  // x 8 texels (the largest map's u and v counts), map k in slice k, in its lower corner, the
+  // rest of the slice repeating the map's last column and row (clamp to edge within the map).
+  // Eight slices, not six (7 and 8 repeat the last map), so that slice k's centre, texture
+  // coordinate (k + 0.5) / 8, is exact in binary: a read there mixes in no other map however the
+  // sampler rounds, which (k + 0.5) / 6 would not ensure.
+  struct Layers {
+    int width = 0, height = 0;
+    static constexpr int kDepth = 8;
+  };
+  Layers layers() const;
+  // The texture's texels, width x height x 8, u fastest, then v, then the slice.
+  std::vector<float> layer_texels() const;
+  // Sets the maps' depths from such texels; their layouts (nu, nv, ...) must be set already.
+  void set_depths_from_layers(const std::vector<float>& texels);
+  // Bytes of the texture at `bytes_per_texel` (4 for R32F, 2 for R16F).
   std::uint64_t texture_bytes(int bytes_per_texel = 4) const;
   // Texels of the six maps themselves (without the array's padding).
   long map_texels() const;
@@ -103,8 +115,14 @@ struct DepthCube {
 // Texels along each local axis for a box of `half_extents` with `resolution` texels along its
 // longest side: max(1, ceil(2 h_a / spacing)), spacing = 2 max(h) / resolution.
 Eigen::Vector3i depth_cube_dims(const Eigen::Vector3d& half_extents, int resolution);
-// Bytes of the 6-layer float array texture of such a depth cube (before anything is allocated).
+// Bytes of the float texture of such a depth cube (DepthCube::layers; before anything is
+// allocated).
 std::uint64_t depth_cube_bytes(const Eigen::Vector3d& half_extents, int resolution);
+
+// A depth cube's layout for a box of `half_extents` at `resolution` (spacing, far_depth, each
+// map's axes, origin and texel counts), every texel far_depth: what bake_depth_cube fills, and
+// what an exported cube's atlas is read into. Error for a resolution outside [1, 65536].
+DepthCube depth_cube_layout(const Eigen::Vector3d& half_extents, int resolution);
 
 // Bakes the depth cube of `mesh` over `box` on the CPU: each triangle is rasterised into the
 // texel grid of each axis (orthographic projection: drop the axis; the depth by barycentrics at

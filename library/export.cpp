@@ -135,14 +135,20 @@ const char* kEncoding =
     "Vulkan. Memory order: channels, then x fastest, then y, then z (KTX2 orientation rdi). A "
     "stored value decodes as object = stored * scale[channel].";
 
+// A depth cube's far depth in units of the box's largest half extent.
+double cube_far(const BoxTextures& tex) {
+  return tex.depth_cube.far_depth / tex.box.half_extents.maxCoeff();
+}
+
 nlohmann::json texture_entry(const ExportedTexture& t) {
   nlohmann::json e;
   e["dims"] = ivec(t.volume.dims);
   e["channels"] = t.channels;
   e["scale"] = t.scale;
-  e["region"] = {{"min", vec(t.origin_box_units)},
-                 {"max", vec(t.origin_box_units +
-                             t.spacing_box_units.cwiseProduct(t.volume.dims.cast<double>()))}};
+  if (t.has_region)
+    e["region"] = {{"min", vec(t.origin_box_units)},
+                   {"max", vec(t.origin_box_units +
+                               t.spacing_box_units.cwiseProduct(t.volume.dims.cast<double>()))}};
   e["frame"] = t.frame;
   e["meaning"] = t.meaning;
   if (t.round_up) e["quantised"] = "upwards (a bound stays a bound)";
@@ -260,8 +266,6 @@ Eigen::Vector3d cylindrical_units(const Eigen::Vector3d& half_extents, int axis)
 
 std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
   const BoxTextures& tex = baked.textures;
-  if (tex.uses_depth_cube)
-    throw Error("export needs the box's distance grid; this box uses a depth cube");
   const Eigen::Vector3d h = tex.box.half_extents;
   // D and A's units per texture axis: box units, or for cylindrical textures (theta, r, h) in
   // radians, r / max(h_u, h_v) and h / h_a (cylindrical_units).
@@ -295,11 +299,37 @@ std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
       ">= 0.5";
   out.push_back(std::move(d));
 
-  out.push_back(scalar_texture(
-      "distance", tex.sdf.grid, voxel, h, "undeformed",
-      "signed distance f to the mesh part in the box, > 0 inside, read at the undeformed point "
-      "p; exact within the narrow band, +-background beyond it (a lower bound of the distance)",
-      false));
+  if (tex.uses_depth_cube) {
+    const DepthCube& cube = tex.depth_cube;
+    const DepthCube::Layers layers = cube.layers();
+    const std::vector<float> texels = cube.layer_texels();
+    const double unit = h.maxCoeff();  // far_depth = 2048 of them: a half float holds it
+    ExportedTexture t;
+    t.volume = volume_from(
+        "depth", {layers.width, layers.height, DepthCube::Layers::kDepth}, 1,
+        [&](int i, int j, int k, int) {
+          return static_cast<float>(
+              texels[(static_cast<size_t>(k) * layers.height + j) * layers.width + i] / unit);
+        });
+    t.object = texels;
+    t.scale = {unit};
+    t.channels = {"depth"};
+    t.origin_box_units = Eigen::Vector3d::Zero();
+    t.spacing_box_units = Eigen::Vector3d::Ones();
+    t.frame = "undeformed";
+    t.meaning =
+        "the depth-map cube's six maps H_k (faces -x, +x, -y, +y, -z, +z), map k in slice k, "
+        "see depth_cube: the depth of the first surface inside the box seen from face k along its "
+        "inward normal, +far_depth where a ray sees none, -far_depth where it starts inside";
+    t.has_region = false;
+    out.push_back(std::move(t));
+  } else {
+    out.push_back(scalar_texture(
+        "distance", tex.sdf.grid, voxel, h, "undeformed",
+        "signed distance f to the mesh part in the box, > 0 inside, read at the undeformed point "
+        "p; exact within the narrow band, +-background beyond it (a lower bound of the distance)",
+        false));
+  }
   if (tex.has_cut)
     out.push_back(scalar_texture(
         "alpha", tex.alpha.grid, voxel, units_a, "deformed",
@@ -371,6 +401,32 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   } else {
     side["mapping"] = {{"type", "cartesian"}};
   }
+  if (tex.uses_depth_cube) {
+    const DepthCube& cube = tex.depth_cube;
+    static const char* kFaces[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
+    nlohmann::json maps = nlohmann::json::array();
+    for (int k = 0; k < 6; ++k) {
+      const DepthMap& m = cube.maps[k];
+      maps.push_back({{"face", kFaces[k]},
+                      {"slice", k},
+                      {"u_axis", std::string(1, "xyz"[m.u_axis])},
+                      {"v_axis", std::string(1, "xyz"[m.v_axis])},
+                      {"texels", {m.nu, m.nv}},
+                      {"origin", {m.origin.x() / h[m.u_axis], m.origin.y() / h[m.v_axis]}}});
+    }
+    side["depth_cube"] = {
+        {"resolution", std::lround(2.0 * h.maxCoeff() / cube.spacing)},
+        {"far_depth", cube_far(tex)},
+        {"maps", maps},
+        {"meaning",
+         "the implicit is a depth-map cube, not a distance grid: texture depth holds map k in "
+         "slice k of 8 (7 and 8 repeat map 5, so that slice centres (k + 0.5) / 8 are exact), "
+         "its texel (i, j) at (i, j) and the rest of the slice repeating its last column and row. "
+         "Texel side = 2 / resolution of the largest half extent; origin (box units along u_axis "
+         "and v_axis) is a map's lower corner; depths and far_depth are in units of the largest "
+         "half extent. With d_k the depth of p from face k, f_k = d_k - H_k (H bilinear, clamped "
+         "to the map's outer texel centres), f = min |f_k|, negated unless every f_k > 0"}};
+  }
   side["texture_map"] = matrix(map_to_box_units(tex.texture_map, h));
   if (!source.animation.is_null()) side["animation"] = source.animation;
   side["texture_map_meaning"] =
@@ -385,7 +441,7 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
       {"shell_thickness_voxels", tex.has_cut ? tex.shell_thickness / implicit_spacing(tex) : 0.0},
       {"lipschitz", std::isfinite(tex.lipschitz) ? tex.lipschitz : -1.0},
       {"voxel_box_units", implicit_spacing(tex) / h.maxCoeff()},
-      {"distance_background_voxels", tex.sdf.background / implicit_spacing(tex)},
+      {"distance_background_voxels", implicit_background(tex) / implicit_spacing(tex)},
       {"band_voxels", tex.sdf.band_voxels},
       {"seam_voxels", kSeamVoxels},
       {"cap_voxels", kCapVoxels}};
@@ -442,6 +498,16 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   for (ExportFormat f : options.formats) {
     if (f == ExportFormat::Vdb) continue;  // below: one file for every grid
     for (const auto& t : textures) {
+      if (f == ExportFormat::AtlasPng && t.volume.name == "depth") {
+        side["warnings"].push_back(
+            {{"code", "depth_cube_not_in_png"},
+             {"message",
+              "the depth cube's texture is not written as a 16-bit PNG: its range (+-far_depth) "
+              "leaves codes " +
+                  std::to_string(2.0 * cube_far(tex) / 65535.0) +
+                  " largest half extents apart; read it from ktx2, dds or atlas-exr"}});
+        continue;
+      }
       const std::string name = file_name(stem, t.volume.name, f);
       const std::string path = (dir / name).string();
       const TextureVolume v = as_stored(t, options.storage);
@@ -494,7 +560,8 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
     // index-to-world transform of each grid placing voxel centres where the texels' are.
     std::vector<VdbGrid> grids;
     for (const auto& t : textures) {
-      if (t.round_up) continue;  // the bounds are for ray casters, not DCC tools
+      // The bounds are for ray casters, not DCC tools; so is a depth cube's maps.
+      if (t.round_up || !t.has_region) continue;
       Eigen::Matrix4d index_to_local = Eigen::Matrix4d::Identity();
       const Eigen::Vector3d spacing = t.spacing_box_units.cwiseProduct(h);
       const Eigen::Vector3d first = t.origin_box_units.cwiseProduct(h) + 0.5 * spacing;
@@ -537,15 +604,19 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
     }
     const std::string name = stem + ".vdb";
     write_vdb((dir / name).string(), grids, {{"raywarp.export", embedded}});
-    nlohmann::json e = {{"texture", "all"},
-                        {"format", "vdb"},
-                        {"file", name},
-                        {"bytes", fs::file_size(dir / name)},
-                        {"storage", "float"},
-                        {"max_error", 0.0},
-                        {"grids",
-                         "deformation (vec3, object space and units, p = p' + D), valid, "
-                         "distance (level set, OpenVDB's sign: negative inside), alpha (cuts)"}};
+    nlohmann::json e = {
+        {"texture", "all"},
+        {"format", "vdb"},
+        {"file", name},
+        {"bytes", fs::file_size(dir / name)},
+        {"storage", "float"},
+        {"max_error", 0.0},
+        {"grids", tex.uses_depth_cube
+                      ? "deformation (vec3, object space and units, p = p' + D), valid, "
+                        "alpha (cuts); no distance: the implicit is a depth cube"
+                      : "deformation (vec3, object space and units, p = p' + D), valid, "
+                        "distance (level set, OpenVDB's sign: negative inside), alpha "
+                        "(cuts)"}};
     files.push_back(e);
   }
   side["files"] = files;
@@ -655,8 +726,13 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
       if (scale.size() != static_cast<size_t>(channels))
         throw Error(where + ": textures." + name + ".scale: " + std::to_string(channels) +
                     " numbers expected");
-      const Eigen::Vector3d origin = v3(t.at("region").at("min")).cwiseProduct(u);
-      const Eigen::Vector3d upper = v3(t.at("region").at("max")).cwiseProduct(u);
+      // A texture with no region (a depth cube's maps) is read on the grid of its texels.
+      Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+      Eigen::Vector3d upper = dims.cast<double>();
+      if (t.contains("region")) {
+        origin = v3(t.at("region").at("min")).cwiseProduct(u);
+        upper = v3(t.at("region").at("max")).cwiseProduct(u);
+      }
       Grid3<Eigen::Vector4f> g(origin, (upper - origin).cwiseQuotient(dims.cast<double>()), dims,
                                Eigen::Vector4f::Zero());
       for (int k = 0; k < dims.z(); ++k)
@@ -676,10 +752,35 @@ BoxTextures import_box(const fs::path& sidecar, ExportFormat format) {
       return s;
     };
     tex.deformation.grid = load("deformation", 4, tex.moves_nothing ? h : units);
-    tex.sdf.grid = scalar("distance", h);
-    tex.sdf.background =
-        static_cast<float>(render.at("distance_background_voxels").get<double>() * voxel);
-    tex.sdf.band_voxels = render.at("band_voxels").get<double>();
+    if (side.contains("depth_cube")) {
+      const nlohmann::json& dc = side.at("depth_cube");
+      const int resolution = dc.at("resolution").get<int>();
+      if (resolution < 1 || resolution > 65536)
+        throw Error(where + ": depth_cube.resolution = " + std::to_string(resolution) +
+                    ": must be in [1, 65536]");
+      // The layout the resolution implies must be the texture's before any map is allocated.
+      const Eigen::Vector3i n = depth_cube_dims(h, resolution);
+      const int width = std::max(n.x(), n.y()), height = std::max(n.y(), n.z());
+      const nlohmann::json& dims = side.at("textures").at("depth").at("dims");
+      if (dims != nlohmann::json{width, height, DepthCube::Layers::kDepth})
+        throw Error(where + ": textures.depth.dims = " + dims.dump() +
+                    ": a depth cube of resolution " + std::to_string(resolution) +
+                    " over this box is " + std::to_string(width) + "x" + std::to_string(height) +
+                    "x" + std::to_string(DepthCube::Layers::kDepth) + " texels");
+      DepthCube cube = depth_cube_layout(h, resolution);
+      const double far = dc.at("far_depth").get<double>() * h.maxCoeff();
+      if (!(far > 2.0 * h.maxCoeff()) || !std::isfinite(far))
+        throw Error(where + ": depth_cube.far_depth: must exceed the box's size (2)");
+      cube.far_depth = static_cast<float>(far);
+      cube.set_depths_from_layers(scalar("depth", h).data);
+      tex.depth_cube = std::move(cube);
+      tex.uses_depth_cube = true;
+    } else {
+      tex.sdf.grid = scalar("distance", h);
+      tex.sdf.background =
+          static_cast<float>(render.at("distance_background_voxels").get<double>() * voxel);
+      tex.sdf.band_voxels = render.at("band_voxels").get<double>();
+    }
     if (tex.has_cut) tex.alpha.grid = scalar("alpha", units);
     if (side.at("textures").contains("step_bounds_d")) {
       const nlohmann::json& sb = render.at("step_bounds");

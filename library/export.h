@@ -73,9 +73,11 @@ struct ExportedTexture {
   std::string frame;                  // "deformed" (read at p') or "undeformed" (at p)
   std::string meaning;                // one sentence
   bool round_up = false;              // bounds: quantised upwards, never below the value
+  bool has_region = true;             // false: not a grid over the box (a depth cube's maps)
 };
-// The textures of a baked box: deformation (RGBA: D in box units, validity), the distance grid
-// (R, voxels), the alpha map of a cut (R, voxels) and the step bounds where baked (R).
+// The textures of a baked box: deformation (RGBA: D in box units, validity), the implicit (the
+// distance grid, R in voxels, or a depth cube's six maps, R in units of the box's
+// largest half extent), the alpha map of a cut (R, voxels) and the step bounds where baked (R).
 std::vector<ExportedTexture> export_textures(const BakedBox& box);
 
 // A cylindrical texture's units per texture axis (theta, r, h about `axis`): 1 (radians),

