@@ -610,11 +610,13 @@ std::string unreal_import_script(const json& side, const std::string& stem, cons
   const json& c = side.at("box").at("centre");
   json box_to_object = json::array();
   for (int r = 0; r < 3; ++r) box_to_object.push_back({R[r][0], R[r][1], R[r][2], c[r]});
-  return fill_template("unreal/import.py", {{"STEM", stem},
-                                            {"IDENT", cs_ident(stem)},
-                                            {"ATLASES", list.dump()},
-                                            {"INPUTS", inputs.dump()},
-                                            {"BOX_TO_OBJECT", box_to_object.dump()}});
+  return fill_template("unreal/import.py",
+                       {{"STEM", stem},
+                        {"IDENT", cs_ident(stem)},
+                        {"ATLASES", list.dump()},
+                        {"INPUTS", inputs.dump()},
+                        {"BOX_TO_OBJECT", box_to_object.dump()},
+                        {"HALF_EXTENTS", side.at("box").at("half_extents").dump()}});
 }
 
 namespace {

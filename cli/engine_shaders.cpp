@@ -181,8 +181,10 @@ std::string unity_vector(const nlohmann::json& v) {
   else
     x.push_back(v.get<double>());
   x.resize(4, 0.0);
-  return "(" + fmt("%.9g", x[0]) + ", " + fmt("%.9g", x[1]) + ", " + fmt("%.9g", x[2]) + ", " +
-         fmt("%.9g", x[3]) + ")";
+  std::string s = "(";
+  for (int c = 0; c < 4; ++c) s += (c ? ", " : "") + fmt("%.9g", x[c]);
+  s += ")";
+  return s;
 }
 
 // A linear colour as a Unity Color property's default: sRGB-encoded, since Unity decodes Color
@@ -236,6 +238,27 @@ std::string unity_shader(const MarchHlsl& march, const nlohmann::json& values,
                                                 {"ALBEDO", colour3(value("u_albedo"))},
                                                 {"INSIDE", colour3(value("u_inside_colour"))},
                                                 {"CUT", colour3(value("u_cut_colour"))}});
+}
+
+std::string unity_remainder_shader(const nlohmann::json& values, const std::string& stem) {
+  auto value = [&](const std::string& name) -> const nlohmann::json& {
+    if (!values.contains(name)) throw Error("Unity remainder shader of " + stem + ": no " + name);
+    return values.at(name);
+  };
+  std::string half = unity_vector(value("u_half_extents"));  // "(x, y, z, 0)": x, y, z
+  half = half.substr(1, half.rfind(',') - 1);
+  auto row = [&](const char* name) {
+    const std::string v = unity_vector(value(name));
+    return v.substr(1, v.size() - 2);
+  };
+  return fill_template("unity/RaywarpRemainder.shader",
+                       {{"STEM", stem},
+                        {"ALBEDO", colour3(value("u_albedo"))},
+                        {"INSIDE", colour3(value("u_inside_colour"))},
+                        {"OBJECT_TO_BOX_X", row("u_object_to_box_x")},
+                        {"OBJECT_TO_BOX_Y", row("u_object_to_box_y")},
+                        {"OBJECT_TO_BOX_Z", row("u_object_to_box_z")},
+                        {"HALF_EXTENTS", half}});
 }
 
 std::string identifier(const std::string& s) {
@@ -353,6 +376,13 @@ nlohmann::json write_engine_shaders(const nlohmann::json& sidecar,
       {"unity/Shaders/Raywarp_" + stem + ".shader", unity_shader(march, values, stem)},
       {"unity/Shaders/raywarp_" + stem + ".hlsl", march_hlsl_include(march)},
       {"unity/Shaders/RaywarpUnity.hlsl", fill_template("unity/RaywarpUnity.hlsl", {})},
+      {"unity/Shaders/RaywarpInsideBox.hlsl", fill_template("unity/RaywarpInsideBox.hlsl", {})},
+      {"unity/Shaders/RaywarpRemainder.hlsl", fill_template("unity/RaywarpRemainder.hlsl", {})},
+      {"unity/Shaders/RaywarpRemainder_" + stem + ".shader", unity_remainder_shader(values, stem)},
+      {"unity/Shaders/RaywarpShaderGraph_" + stem + ".hlsl",
+       fill_template("unity/RaywarpShaderGraph.hlsl",
+                     {{"STEM", stem}, {"IDENT", identifier(stem)}})},
+      {"unreal/RaywarpRemainderNode.hlsl", fill_template("unreal/RaywarpRemainderNode.hlsl", {})},
       {"unreal/RaywarpCustomNode_" + stem + ".hlsl", unreal_custom_node(march, stem)},
       {"unreal/Raywarp_" + stem + ".ush",
        march_hlsl_struct(march, "RaywarpMarch_" + identifier(stem))},

@@ -62,6 +62,9 @@ nlohmann::json raycast_uniform_values(const nlohmann::json& sidecar,
 // properties. Throws Error naming a uniform of the march that `values` lacks.
 std::string unity_shader(const MarchHlsl& march, const nlohmann::json& values,
                          const std::string& stem);
+// The material of the mesh outside the box (engines/unity/RaywarpRemainder.shader): lit like the
+// box's pass, both faces, every pass clipping what lies inside the box; defaults from `values`.
+std::string unity_remainder_shader(const nlohmann::json& values, const std::string& stem);
 
 // Unreal 5's Custom node: the inputs it takes, in order, as (HLSL type, name): the march's
 // uniforms (float, float2..4; ints arrive as float), its textures (Texture3D, Texture2DArray; each

@@ -250,6 +250,7 @@ namespace UnityEngine {
   public class Material : Object {
     public Material(Shader s) {}
     public void SetTexture(string name, Texture t) {}
+    public void CopyPropertiesFromMaterial(Material m) {}
   }
   public class Component : Object {
     public T GetComponent<T>() { return default(T); }
@@ -289,7 +290,10 @@ namespace UnityEditor {
   public static class AssetDatabase {
     public static void CreateAsset(UnityEngine.Object o, string p) {}
     public static void SaveAssets() {}
+    public static T LoadAssetAtPath<T>(string p) where T : UnityEngine.Object { return null; }
   }
+  public static class Selection { public static UnityEngine.Object activeObject; }
+  public static class EditorUtility { public static void SetDirty(UnityEngine.Object o) {} }
   public enum TextureImporterShape { Texture2D, TextureCube, Texture2DArray, Texture3D }
   public enum TextureImporterNPOTScale { None, ToNearest, ToLarger, ToSmaller }
   public enum TextureImporterCompression { Uncompressed, Compressed, CompressedHQ, CompressedLQ }

@@ -370,12 +370,15 @@ TEST(UnityShader, EveryPassOfTheExportCompilesAgainstStandIns) {
          at = log.find("engine bundles in", at + 1))
       ++boxes;
   }
+  int remainders = 0, graphs = 0;
   for (const auto& e : fs::recursive_directory_iterator(out)) {
     if (e.path().extension() != ".shader") continue;
-    ++shaders;
+    const bool remainder = e.path().stem().string().rfind("RaywarpRemainder_", 0) == 0;
+    (remainder ? remainders : shaders) += 1;
     const fs::path dir = e.path().parent_path();
-    const std::string stem = e.path().stem().string().substr(std::string("Raywarp_").size());
-    const std::map<std::string, std::string> files = {
+    const std::string stem = e.path().stem().string().substr(
+        std::string(remainder ? "RaywarpRemainder_" : "Raywarp_").size());
+    std::map<std::string, std::string> files = {
         {"Packages/com.unity.render-pipelines.universal/ShaderLibrary/Core.hlsl",
          read_text(stand_ins / "urp_core.hlsl")},
         {"Packages/com.unity.render-pipelines.universal/ShaderLibrary/Lighting.hlsl",
@@ -383,7 +386,34 @@ TEST(UnityShader, EveryPassOfTheExportCompilesAgainstStandIns) {
         {"UnityCG.cginc", read_text(stand_ins / "unitycg.hlsl")},
         {"Lighting.cginc", read_text(stand_ins / "lighting_cginc.hlsl")},
         {"raywarp_" + stem + ".hlsl", read_text(dir / ("raywarp_" + stem + ".hlsl"))},
-        {"RaywarpUnity.hlsl", read_text(dir / "RaywarpUnity.hlsl")}};
+        {"RaywarpUnity.hlsl", read_text(dir / "RaywarpUnity.hlsl")},
+        {"RaywarpInsideBox.hlsl", read_text(dir / "RaywarpInsideBox.hlsl")},
+        {"RaywarpRemainder.hlsl", read_text(dir / "RaywarpRemainder.hlsl")}};
+    if (!remainder) {
+      // The Shader Graph Custom Function, called as a graph calls it (URP's Core.hlsl first).
+      const std::string graph = "RaywarpShaderGraph_" + stem + ".hlsl";
+      files[graph] = read_text(dir / graph);
+      std::set<std::string> done;
+      const std::string hlsl = resolve_includes(
+          "#include \"Packages/com.unity.render-pipelines.universal/ShaderLibrary/Core.hlsl\"\n"
+          "#include \"" +
+              graph +
+              "\"\n"
+              "float4 graph_frag(float4 position : SV_Position, float3 world : TEXCOORD0) : "
+              "SV_Target {\n"
+              "  float hit, depth; float3 p, n, albedo;\n"
+              "  RaywarpMarch_" +
+              identifier(stem) +
+              "_float(world, hit, p, n, albedo, depth);\n"
+              "  return float4(albedo * hit + n + p, depth);\n}\n",
+          files, done);
+      try {
+        translate::hlsl_to_spirv(hlsl, translate::Stage::Fragment, "graph_frag", graph);
+        ++graphs;
+      } catch (const Error& error) {
+        ADD_FAILURE() << error.what();
+      }
+    }
     const std::vector<UnityPass> passes = unity_passes(read_text(e.path()));
     EXPECT_EQ(passes.size(), 5u) << e.path();
     for (const UnityPass& p : passes) {
@@ -411,9 +441,13 @@ TEST(UnityShader, EveryPassOfTheExportCompilesAgainstStandIns) {
     }
   }
   EXPECT_EQ(shaders, boxes);  // one per box
+  EXPECT_EQ(remainders, boxes);
+  EXPECT_EQ(graphs, boxes);
   EXPECT_GE(shaders, 25);
-  std::printf("[figures] Unity: %d shaders, %d pass programs compiled against the stand-ins\n",
-              shaders, compiles);
+  std::printf(
+      "[figures] Unity: %d box shaders, %d remainder shaders, %d pass programs and %d Shader Graph "
+      "functions compiled against the stand-ins\n",
+      shaders, remainders, compiles, graphs);
 }
 
 }  // namespace
@@ -435,6 +469,16 @@ TEST(EngineSelection, PicksTheBundlesAndRefusesTexturesOverAnEnginesLimit) {
   const fs::path bundles = out / "bunny_cut_solid_box0.engines";
   EXPECT_TRUE(fs::exists(bundles / "unity/Shaders/Raywarp_bunny_cut_solid_box0.shader"));
   EXPECT_TRUE(fs::exists(bundles / "unreal/RaywarpCustomNode_bunny_cut_solid_box0.hlsl"));
+  // The remainder's Custom node compiles as the body of a function of its inputs.
+  const std::string remainder =
+      "float RaywarpRemainder(float3 PixelWorld, float4 WorldToBoxX, float4 WorldToBoxY, "
+      "float4 WorldToBoxZ, float3 HalfExtents) {\n" +
+      read_text(bundles / "unreal/RaywarpRemainderNode.hlsl") +
+      "\n}\nfloat4 remainder_frag(float4 position : SV_Position, float3 world : TEXCOORD0) : "
+      "SV_Target {\n  return RaywarpRemainder(world, float4(1, 0, 0, 0), float4(0, 1, 0, 0), "
+      "float4(0, 0, 1, 0), float3(1, 1, 1)).xxxx;\n}\n";
+  EXPECT_NO_THROW(translate::hlsl_to_spirv(remainder, translate::Stage::Fragment, "remainder_frag",
+                                           "RaywarpRemainderNode.hlsl"));
   // Unreal's script makes the material: the node's inputs, the decode factors the sidecar's scales.
   const std::string py = read_text(bundles / "unreal/import_bunny_cut_solid_box0.py");
   const std::string marker = "INPUTS = json.loads(r" + std::string(3, '\'');

@@ -89,13 +89,7 @@ bool raywarp_trace(float3 world, out RaywarpHit hit) {
   return true;
 }
 
-// For the rest of the mesh: whether a world-space point lies in the box (box frame |q| <= h, as
-// raywarp's raster pass tests), whose fragments the box's pass draws instead. Include this file
-// in the mesh's own shader, with the box's material properties, and `clip(-1)` where it holds.
-bool raywarp_inside_box(float3 world) {
-  float3 q = raywarp_object_to_box(mul(unity_WorldToObject, float4(world, 1.0)).xyz / u_object_axes.xyz);
-  return all(abs(q) <= u_half_extents);
-}
+#include "RaywarpInsideBox.hlsl"
 
 float3 raywarp_albedo(int kind) {
   return kind == 2 ? u_cut_colour.rgb : (kind == 1 ? u_inside_colour.rgb : u_albedo.rgb);

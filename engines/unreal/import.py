@@ -10,6 +10,9 @@ editor script.
    RaywarpCustomNode_@STEM@.hlsl (beside this script) with every input it takes as a parameter
    (defaults from the export), Absolute World Position and Camera Position wired in, its outputs
    to Base Color, Opacity Mask, Normal and Pixel Depth Offset.
+3. Makes M_Raywarp_@IDENT@_Remainder for the rest of the mesh: Masked, two-sided, a Custom node
+   (RaywarpRemainderNode.hlsl) whose Opacity Mask is 0 inside the box, where the box's material
+   draws instead (for a material of your own, copy that node into it).
 
 The box frame's maps to world space (WorldToBoxX/Y/Z, BoxToWorldX/Y/Z) assume the mesh's actor at
 the origin with no rotation and the mesh imported from raywarp's object space by OBJECT_TO_UNREAL
@@ -32,6 +35,10 @@ ATLASES = json.loads(r'''@ATLASES@''')
 INPUTS = json.loads(r'''@INPUTS@''')
 # The box frame -> raywarp object space, rows [R | c] (object units).
 BOX_TO_OBJECT = json.loads(r'''@BOX_TO_OBJECT@''')
+# The box's half extents (object units).
+HALF_EXTENTS = json.loads(r'''@HALF_EXTENTS@''')
+# The remainder's albedo: the box material's, linear RGB.
+ALBEDO = next((list(value) for _, name, value in INPUTS if name == "Albedo"), [0.8, 0.8, 0.8])
 # raywarp object space -> the actor's local space (Unreal units, centimetres): a 3 x 3 matrix.
 OBJECT_TO_UNREAL = [[100.0, 0.0, 0.0], [0.0, 0.0, 100.0], [0.0, 100.0, 0.0]]
 
@@ -187,6 +194,56 @@ def make_material(volumes):
     return material
 
 
+def make_remainder_material():
+    """M_Raywarp_@IDENT@_Remainder: the rest of the mesh, Masked, two-sided, with a Custom node
+    (RaywarpRemainderNode.hlsl) whose Opacity Mask is 0 inside the box."""
+    tools = unreal.AssetToolsHelpers.get_asset_tools()
+    mel = unreal.MaterialEditingLibrary
+    name = "M_Raywarp_@IDENT@_Remainder"
+    path = DESTINATION + "/" + name
+    if unreal.EditorAssetLibrary.does_asset_exist(path):
+        unreal.EditorAssetLibrary.delete_asset(path)
+    material = tools.create_asset(name, DESTINATION, unreal.Material, unreal.MaterialFactoryNew())
+    material.set_editor_property("blend_mode", unreal.BlendMode.BLEND_MASKED)
+    material.set_editor_property("two_sided", True)
+    with open(os.path.join(HERE, "RaywarpRemainderNode.hlsl")) as f:
+        code = f.read()
+    custom = mel.create_material_expression(material, unreal.MaterialExpressionCustom, -400, 0)
+    custom.set_editor_property("code", code)
+    custom.set_editor_property("output_type", unreal.CustomMaterialOutputType.CMOT_FLOAT1)
+    custom.set_editor_property("description", "raywarp @STEM@: outside the box")
+    names = ["PixelWorld", "WorldToBoxX", "WorldToBoxY", "WorldToBoxZ", "HalfExtents"]
+    inputs = []
+    for input_name in names:
+        item = unreal.CustomInput()
+        item.set_editor_property("input_name", input_name)
+        inputs.append(item)
+    custom.set_editor_property("inputs", inputs)
+    _, to_box = box_rows()
+    world = mel.create_material_expression(material, unreal.MaterialExpressionWorldPosition, -1200, 0)
+    mel.connect_material_expressions(world, "", custom, "PixelWorld")
+    for i, input_name in enumerate(names[1:]):
+        value = to_box[i] if i < 3 else HALF_EXTENTS + [0.0]
+        expr = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -1200, 80 * (i + 1))
+        expr.set_editor_property("parameter_name", input_name)
+        expr.set_editor_property("default_value", unreal.LinearColor(*[float(x) for x in value]))
+        if i == 3:  # HalfExtents is a float3
+            mask = mel.create_material_expression(material, unreal.MaterialExpressionComponentMask, -800, 320)
+            set_props(mask, {"r": True, "g": True, "b": True, "a": False})
+            mel.connect_material_expressions(expr, "", mask, "")
+            expr = mask
+        mel.connect_material_expressions(expr, "", custom, input_name)
+    albedo = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -400, -200)
+    albedo.set_editor_property("parameter_name", "Albedo")
+    albedo.set_editor_property("default_value", unreal.LinearColor(*(ALBEDO + [1.0])))
+    mel.connect_material_property(albedo, "", unreal.MaterialProperty.MP_BASE_COLOR)
+    mel.connect_material_property(custom, "", unreal.MaterialProperty.MP_OPACITY_MASK)
+    mel.recompile_material(material)
+    unreal.EditorAssetLibrary.save_loaded_asset(material)
+    unreal.log("raywarp: " + path + ": put it on the mesh (the rest of it, outside the box)")
+    return material
+
+
 def main():
     if not ATLASES:
         unreal.log_error("raywarp: no atlas files in this export; re-export with --format atlas-exr")
@@ -201,6 +258,7 @@ def main():
                          "needs lo + code * (hi - lo) first: re-export with --format atlas-exr")
     else:
         make_material(volumes)
+    make_remainder_material()
 
 
 if __name__ == "__main__":

@@ -80,6 +80,26 @@ public static class RaywarpImport_@IDENT@
         AssetDatabase.SaveAssets();
     }
 
+    // For a Shader Graph around RaywarpShaderGraph_@STEM@.hlsl (or any material of a shader that
+    // reads the box's uniforms): the box material's values and textures, copied onto the
+    // material selected in the Project window.
+    [MenuItem("Tools/Raywarp/Copy @STEM@ values to the selected material")]
+    public static void CopyValues()
+    {
+        string path = Path.Combine(SourceFolder, "Raywarp_@STEM@.mat");
+        Material source = AssetDatabase.LoadAssetAtPath<Material>(path);
+        Material target = Selection.activeObject as Material;
+        if (source == null || target == null)
+        {
+            Debug.LogError("raywarp: select a material, after Tools > Raywarp > Import @STEM@ made " + path);
+            return;
+        }
+        target.CopyPropertiesFromMaterial(source);
+        EditorUtility.SetDirty(target);
+        AssetDatabase.SaveAssets();
+        Debug.Log("raywarp: " + path + " -> " + target.name);
+    }
+
     static uint U32(byte[] b, int at) { return BitConverter.ToUInt32(b, at); }
 
     // A DDS volume's DXGI_FORMAT (DX10) or D3DFORMAT -> (channels, bytes per channel).
