@@ -219,6 +219,51 @@ MeshPairs mesh_pairs(const std::string& mesh_file, const Mesh& mesh, const FileV
     sum[static_cast<size_t>(v)] += t;
     ++count[static_cast<size_t>(v)];
   }
+  // A stray vertex: one the copy moves farther than the box's diagonal from where its
+  // neighbours' motion (the median of their displacements, per axis) puts it. No deformation a
+  // box can hold stretches an edge that far; a vertex sent a million units away would fold the
+  // whole fit. Refused, naming the vertex (the file's first copy of it) and the distance.
+  std::vector<std::vector<int>> neighbours(static_cast<size_t>(n));
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const int a = mesh.F(f, c), b = mesh.F(f, (c + 1) % 3);
+      neighbours[static_cast<size_t>(a)].push_back(b);
+      neighbours[static_cast<size_t>(b)].push_back(a);
+    }
+  auto displacement = [&](long v) -> Eigen::Vector3d {
+    const size_t i = static_cast<size_t>(v);
+    return count[i] ? Eigen::Vector3d(sum[i] / count[i] - mesh.V.row(v).transpose())
+                    : Eigen::Vector3d::Zero();
+  };
+  auto file_index = [&](long v) {
+    for (size_t r = 0; r < rest.joined.size(); ++r)
+      if (rest.joined[r] == v) return static_cast<long>(r);
+    return v;
+  };
+  for (long v = 0; v < n; ++v) {
+    const size_t i = static_cast<size_t>(v);
+    if (count[i] == 0 || neighbours[i].empty()) continue;
+    const Eigen::Vector3d p = mesh.V.row(v).transpose();
+    if (((box.to_local(p).cwiseAbs() - box.half_extents).array() > tolerance).any()) continue;
+    std::vector<int>& around = neighbours[i];
+    std::sort(around.begin(), around.end());
+    around.erase(std::unique(around.begin(), around.end()), around.end());
+    Eigen::Vector3d median;
+    for (int a = 0; a < 3; ++a) {
+      std::vector<double> x;
+      for (int u : around) x.push_back(displacement(u)[a]);
+      std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+      median[a] = x[x.size() / 2];
+    }
+    const double off = (displacement(v) - median).norm();
+    if (off > diagonal)
+      throw Error(target_file + ": vertex " + std::to_string(file_index(v)) + " moves " +
+                  shortest_text(off) + " units from where its " + std::to_string(around.size()) +
+                  " neighbours' motion puts it, more than the box's diagonal (" +
+                  shortest_text(diagonal) +
+                  "): a stray vertex that no deformation in the box can hold; put it back in the "
+                  "copy (the file's vertex order is the mesh's, from 0)");
+  }
   for (long v = 0; v < n; ++v) {
     const size_t i = static_cast<size_t>(v);
     if (count[i] == 0) continue;

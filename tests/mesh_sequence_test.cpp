@@ -209,3 +209,38 @@ TEST_F(MeshSequence, TheFitIsCachedPerFrame) {
 }
 
 }  // namespace
+
+// A copy with one vertex sent far away (a slip of a modelling tool, a broken export) is refused
+// naming the vertex and how far it strays from its neighbours' motion; a rigid move of the whole
+// copy, however large, is no stray.
+TEST_F(MeshSequence, AStrayVertexIsNamedAndRefused) {
+  auto sheet = [](int stray, double far, double shift) {
+    PolygonSoup soup;  // a 6 x 6 grid of vertices over [0, 1]^2 at z = 0, two triangles a cell
+    for (int j = 0; j < 6; ++j)
+      for (int i = 0; i < 6; ++i)
+        soup.vertices.push_back({0.2 * i + shift, 0.2 * j, (j * 6 + i == stray) ? far : 0.0});
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i) {
+        const int a = j * 6 + i;
+        soup.sizes.insert(soup.sizes.end(), {3, 3});
+        soup.corners.insert(soup.corners.end(), {a, a + 1, a + 7, a, a + 7, a + 6});
+      }
+    return soup;
+  };
+  raywarp::testing::write_ply(path("sheet.ply"), sheet(-1, 0.0, 0.0));
+  raywarp::testing::write_ply(path("torn.ply"), sheet(14, 1e6, 0.0));
+  raywarp::testing::write_ply(path("moved.ply"), sheet(-1, 0.0, 1000.0));
+  const Mesh mesh = load_mesh(path("sheet.ply"));
+  Box box;
+  box.centre = Eigen::Vector3d(0.5, 0.5, 0.0);
+  box.half_extents = Eigen::Vector3d(0.6, 0.6, 0.2);
+  const std::string message = message_of([&] {
+    mesh_pairs(path("sheet.ply"), mesh, load_file_vertices(path("torn.ply")), "torn.ply", box);
+  });
+  EXPECT_NE(message.find("torn.ply: vertex 14 moves 1e+06 units"), std::string::npos) << message;
+  EXPECT_NE(message.find("6 neighbours"), std::string::npos) << message;
+  const MeshPairs moved =
+      mesh_pairs(path("sheet.ply"), mesh, load_file_vertices(path("moved.ply")), "moved.ply", box);
+  EXPECT_EQ(moved.sources.size(), 36u);
+  EXPECT_NEAR(moved.largest_move, 1000.0, 1e-9);
+}
