@@ -132,7 +132,11 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
     log << tag << "inverse residual |F(p' + D(p')) - p'| over " << res.texels
         << " valid texels: max " << fmt("%.3g", res.max) << ", mean " << fmt("%.3g", res.mean)
         << " units; " << res.over_tolerance << " over " << fmt("%.3g", res.tolerance) << " ("
-        << fmt("%g", kResidualVoxels) << " voxel)\n";
+        << fmt("%g", kResidualVoxels) << " voxel)";
+    if (res.in_cut > 0)
+      log << "; " << res.in_cut
+          << " valid texels in the cut left out (the region the cut empties has no preimage)";
+    log << "\n";
     if (r.added_detail) {
       // The residual above is then the cost of adding the detail's inverse displacement to the
       // list's instead of composing them (deformers/composed.h).

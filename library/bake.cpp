@@ -138,6 +138,7 @@ std::vector<char> save_deformation(const DeformationRecord& d) {
   w.integer(d.residual.over_tolerance);
   w.number(d.residual.tolerance);
   w.integer(d.residual.folded);
+  w.integer(d.residual.in_cut);
   w.number(d.added_detail.difference_max);
   w.number(d.added_detail.difference_mean);
   w.integer(d.added_detail.texels);
@@ -161,6 +162,7 @@ bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
   out.residual.over_tolerance = r.integer();
   out.residual.tolerance = r.number();
   out.residual.folded = r.integer();
+  out.residual.in_cut = r.integer();
   out.added_detail.difference_max = r.number();
   out.added_detail.difference_mean = r.number();
   out.added_detail.texels = r.integer();

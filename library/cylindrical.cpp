@@ -339,7 +339,7 @@ InverseResidual measure_cylindrical_residual(const Deformer& deformer,
   const Grid3<Eigen::Vector4f>& g = texture.grid;
   struct Row {
     double max = 0, sum = 0;
-    long texels = 0, over = 0, folded = 0;
+    long texels = 0, over = 0, folded = 0, in_cut = 0;
   };
   std::vector<Row> rows(size_t(g.dims.y()) * g.dims.z());
   parallel_for(
@@ -354,7 +354,10 @@ InverseResidual measure_cylindrical_residual(const Deformer& deformer,
           const Eigen::Vector3d p_def = from_cylindrical(c, axis);
           const Eigen::Vector3d p = from_cylindrical(c + t.head<3>().cast<double>(), axis);
           if (!in_box(p, half_extents)) continue;
-          if (deformer.has_cut() && deformer.alpha(p_def) > 0.0) continue;
+          if (deformer.has_cut() && deformer.alpha(p_def) > 0.0) {
+            ++r.in_cut;
+            continue;
+          }
           const double e = (deformer.forward(p) - p_def).norm();
           r.max = std::max(r.max, e);
           r.sum += e;
@@ -370,6 +373,7 @@ InverseResidual measure_cylindrical_residual(const Deformer& deformer,
     out.max = std::max(out.max, r.max);
     out.mean += r.sum;
     out.texels += r.texels;
+    out.in_cut += r.in_cut;
     out.over_tolerance += r.over;
     out.folded += r.folded;
   }

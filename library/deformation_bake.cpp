@@ -433,7 +433,7 @@ InverseResidual measure_inverse_residual(const Deformer& d, const DeformationTex
   const Grid3<Eigen::Vector4f>& grid = texture.grid;
   struct Slice {
     double max = 0, sum = 0;
-    long texels = 0, over = 0, folded = 0;
+    long texels = 0, over = 0, folded = 0, in_cut = 0;
   };
   const int slices = grid.dims.z();
   std::vector<Slice> results(std::max(slices, 0));
@@ -447,6 +447,10 @@ InverseResidual measure_inverse_residual(const Deformer& d, const DeformationTex
             const Eigen::Vector4f& texel = grid.at(i, j, k);
             if (!(texel.w() >= 0.5f)) continue;
             const Eigen::Vector3d p_def = grid.texel_centre(i, j, k);
+            if (d.has_cut() && d.alpha(p_def) > 0.0) {
+              ++s.in_cut;
+              continue;
+            }
             const Eigen::Vector3d p = p_def + texel.head<3>().cast<double>();
             const double r = (d.forward(p) - p_def).norm();
             ++s.texels;
@@ -466,6 +470,7 @@ InverseResidual measure_inverse_residual(const Deformer& d, const DeformationTex
     out.max = std::max(out.max, s.max);
     sum += s.sum;
     out.texels += s.texels;
+    out.in_cut += s.in_cut;
     out.over_tolerance += s.over;
     out.folded += s.folded;
   }

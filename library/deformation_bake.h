@@ -114,16 +114,21 @@ AutoAlpha bake_alpha_auto(const Deformer& deformer, const Eigen::AlignedBox3d& r
 double displacement_lipschitz(const Deformer& deformer, const DeformationTexture& texture,
                               Interrupter* interrupter = nullptr);
 
-// How well a baked texture inverts a deformer (any deformer): over the valid texels (w >= 0.5),
-// at texel centres p' with p = p' + D(p') (D as stored, in float), the residual |F(p) - p'|.
+// How well a baked texture inverts a deformer (any deformer): over the valid texels (w >= 0.5)
+// outside a cut, at texel centres p' with p = p' + D(p') (D as stored, in float), the residual
+// |F(p) - p'|.
 //   max, mean      of the residual (object units)
 //   texels         valid texels measured
+//   in_cut         valid texels left out because they lie in the cut (A(p') > 0): the region a
+//                  cut empties (a peel's vacated gap) has no preimage by design, and the
+//                  renderer draws nothing there whatever D says
 //   over_tolerance those with residual > tolerance (tolerance echoes the argument)
 //   folded         those whose preimage has det(dF/dp) <= 0 (where the inverse is ambiguous)
 // The float storage of D alone leaves a residual of about |dF/dp| 2^-24 |D|.
 struct InverseResidual {
   double max = 0, mean = 0;
   long texels = 0;
+  long in_cut = 0;
   long over_tolerance = 0;
   double tolerance = 0;
   long folded = 0;

@@ -242,6 +242,23 @@ TEST(Peel, FoldIsReportedAndRenderedFinite) {
               box.report.folds.folded_volume, box.report.folds.box_volume);
 }
 
+// The shipped peel's texture inverts the peel everywhere outside the cut: the texels whose
+// residual is large are exactly those in the gap the flap vacates (A > 0, no preimage by design),
+// counted apart, and the bake warns of nothing.
+TEST(Peel, TextureInvertsThePeelOutsideTheCut) {
+  Prepared p = prepare("bunny_peel.json", [](Scene&) {});
+  const BakedBox& box = p.prepared.boxes[0];
+  const InverseResidual& r = box.report.residual;
+  EXPECT_EQ(r.over_tolerance, 0) << r.max;
+  EXPECT_GT(r.in_cut, 0);
+  EXPECT_LT(r.max, r.tolerance);
+  for (const auto& w : box.report.warnings) EXPECT_NE(w.code, "inverse_residual") << w.message;
+  std::printf(
+      "[figures] bunny_peel: residual max %.3g units over %ld texels; %ld texels in the "
+      "cut left out\n",
+      r.max, r.texels, r.in_cut);
+}
+
 // The alpha map is finite and positive exactly where the cut removes material.
 TEST(BoxCut, AlphaIsSignedDistanceOfRegion) {
   BoxCutParams params;
