@@ -505,6 +505,23 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
       lo = tn;
       hi = tn;
     }
+#ifdef RAYWARP_CUT
+    else if (s.valid && sn.valid && s.a > 0.0 && sn.a <= 0.0 && surface(s.f) > 0.0) {
+      // The step crossed a cut face from the object's removed part: the object may go on for
+      // less than a step past the face (near a cap's outline, where the face meets the
+      // surface). Its crossing, found by bisection on A, and just past it.
+      float l = t, r = tn;
+      for (int k = 0; k < u_refine_steps; ++k) {
+        float mid = 0.5 * (l + r);
+        if (sample_at(o + mid * d, true).a > 0.0) l = mid; else r = mid;
+      }
+      if (surface(sample_at(o + r * d, true).f) > 0.0) {
+        hit = true;
+        lo = l;
+        hi = r;
+      }
+    }
+#endif
 #endif
     t = tn;
     s = sn;

@@ -568,6 +568,21 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
         // opens between the passes.
         hit = true;
         lo = hi = tn;
+      } else if (box.has_cut && s.valid && sn.valid && s.a > 0.0 && sn.a <= 0.0 &&
+                 surface(box, s.f) > 0.0) {
+        // The step crossed a cut face from the object's removed part: the object may go on for
+        // less than a step past the face (near a cap's outline, where the face meets the
+        // surface). Its crossing, found by bisection on A, and just past it (the shader's rule).
+        double l = t, r = tn;
+        for (int k = 0; k < settings.refine_steps; ++k) {
+          double mid = 0.5 * (l + r);
+          (at(mid, true).a > 0.0 ? l : r) = mid;
+        }
+        if (surface(box, at(r, true).f) > 0.0) {
+          hit = true;
+          lo = l;
+          hi = r;
+        }
       }
     }
     t = tn;
