@@ -65,7 +65,11 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
     log << tag << "distance grid " << dims_string(s->resolution) << ", voxel "
         << fmt("%.4g", s->spacing.x()) << ", band " << fmt("%.3g", r.band_voxels) << " voxels, "
         << r.active_voxels << " in band, " << fmt("%.1f", mib(s->bytes)) << " MiB, sign by "
-        << r.sign_method << " (" << fmt("%.2f", s->seconds) << " s)\n";
+        << r.sign_method;
+    if (tex.sdf.sheet_faces > 0)
+      log << "; " << tex.sdf.sheet_faces << " faces with no inside drawn as shells "
+          << fmt("%.3g", 2.0 * tex.sdf.sheet_half_thickness) << " units thick";
+    log << " (" << fmt("%.2f", s->seconds) << " s)\n";
   }
   if (const StageReport* sim = r.stage(Stage::Simulation); sim && r.simulation) {
     const SimulationStats& b = r.simulation->body;

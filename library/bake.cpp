@@ -14,6 +14,7 @@
 #include "library/depth_cube.h"
 #include "library/implicit.h"
 #include "library/mesh_pairs.h"
+#include "library/sheets.h"
 #include "library/triangle_bvh.h"
 #include "library/winding.h"
 
@@ -76,6 +77,8 @@ std::vector<char> save_sdf(const DistanceGrid& g) {
   w.number(g.band_voxels);
   w.text(g.sign_method);
   w.integer(g.active_voxels);
+  w.integer(g.sheet_faces);
+  w.number(g.sheet_half_thickness);
   w.number(g.bake_seconds);
   return w.bytes();
 }
@@ -88,6 +91,8 @@ bool load_sdf(const std::vector<char>& bytes, DistanceGrid& g) {
   d.band_voxels = r.number();
   d.sign_method = r.text();
   d.active_voxels = r.integer();
+  d.sheet_faces = r.integer();
+  d.sheet_half_thickness = r.number();
   d.bake_seconds = r.number();
   if (!r.ok() || !r.at_end()) return false;
   g = std::move(d);
@@ -695,7 +700,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
   } else {
     sdf_key = (Key() << "distance grid\nmesh" << job.mesh->hash << "\n"
                      << box_key(spec.box) << "\nresolution" << implicit.resolution << "band"
-                     << implicit.band_voxels << "margin" << implicit.margin_voxels)
+                     << implicit.band_voxels << "margin" << implicit.margin_voxels << "sheets"
+                     << kSheetHalfVoxels)
                   .str();
     const Source source = stage(
         tex.sdf, "sdf", sdf_key, counters_.distance_grid,
@@ -1152,14 +1158,21 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     report.warnings.push_back(
         {"torn_face", "the mesh crosses box face " + face +
                           ", where the deformation is not the identity: the surface tears there"});
-  if (const OpenEdges open = open_edges_in_box(mesh, spec.box); open.any())
-    report.warnings.push_back(
-        {"open_mesh",
-         "the mesh is open or non-manifold inside the box (" + std::to_string(open.boundary) +
-             " boundary and " + std::to_string(open.nonmanifold) +
-             " non-manifold edges): its inside there is taken from the generalised winding "
-             "number, and a sheet or fin with no inside of its own is not in the distance grid, "
-             "so it does not show in the deformed part"});
+  if (const OpenEdges open = open_edges_in_box(mesh, spec.box); open.any()) {
+    std::string w = "the mesh is open or non-manifold inside the box (" +
+                    std::to_string(open.boundary) + " boundary and " +
+                    std::to_string(open.nonmanifold) +
+                    " non-manifold edges): its inside there is taken from the generalised "
+                    "winding number";
+    if (tex.uses_depth_cube)
+      w += ", and a depth cube draws no sheet that has no inside of its own";
+    else if (tex.sdf.sheet_faces > 0)
+      w += ", and the " + std::to_string(tex.sdf.sheet_faces) +
+           " faces with no inside of their own (sheets, cards, fins) are drawn as shells " +
+           fmt("%.3g", 2.0 * tex.sdf.sheet_half_thickness) + " units (" +
+           fmt("%g", 2.0 * kSheetHalfVoxels) + " voxels) thick";
+    report.warnings.push_back({"open_mesh", w});
+  }
   const double ray_length = tex.region.diagonal().norm();
   const double reach = job.max_steps * job.step_voxels * voxel;
   if (reach < ray_length)

@@ -20,6 +20,7 @@
 #include "base/error.h"
 #include "base/parallel.h"
 #include "library/depth_cube.h"
+#include "library/sheets.h"
 #include "library/thickness.h"
 #include "library/triangle_bvh.h"
 #include "library/winding.h"
@@ -406,6 +407,14 @@ DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const Implicit
     }
   }
   result.active_voxels = active;
+
+  // Faces the winding number leaves outside on both sides (sheets, cards, fins, closed parts
+  // thinner than a voxel) have no surface in the signed field: each becomes a thin shell.
+  const double voxel = grid.voxel();
+  const std::vector<int> sheets = sheet_faces(mesh, winding, box, grid, 0.5 * voxel, interrupter);
+  result.sheet_faces = static_cast<long>(sheets.size());
+  result.sheet_half_thickness = sheets.empty() ? 0.0 : kSheetHalfVoxels * voxel;
+  add_sheet_shells(mesh, sheets, box, result.sheet_half_thickness, grid, interrupter);
   result.bake_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -40,8 +40,9 @@ std::uint64_t distance_grid_bytes(const Box& box, const ImplicitSpec& spec);
 // where OpenVDB's band expansion measures to a near rather than the nearest triangle, are
 // measured again exactly. The sign (inside) comes from the generalised winding number of the
 // whole mesh, so open meshes (holes, several shells) get a
-// sensible inside. Progress in stages "distance" then "sign"; Cancelled when `interrupter` is
-// cancelled. Throws Error when the grid would exceed `memory_budget_bytes`.
+// sensible inside; faces with no inside of their own become thin shells (library/sheets.h).
+// Progress in stages "distance", "sign" then "sheets"; Cancelled when `interrupter` is cancelled.
+// Throws Error when the grid would exceed `memory_budget_bytes`.
 DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
                                 size_t memory_budget_bytes = size_t(2) << 30,
                                 Interrupter* interrupter = nullptr);

@@ -25,6 +25,9 @@ struct DistanceGrid {
   double band_voxels = 0.0;
   std::string sign_method;  // how inside was decided, for the report
   long active_voxels = 0;   // voxels in the narrow band
+  // Faces with no inside of their own, drawn as shells of this half thickness (library/sheets.h).
+  long sheet_faces = 0;
+  double sheet_half_thickness = 0.0;  // object units
   double bake_seconds = 0.0;
 };
 

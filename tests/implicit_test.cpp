@@ -290,7 +290,7 @@ TEST(Implicit, ProgressReportsBothStagesAndCancels) {
       },
       0.0);
   bake_distance_grid(sphere, box, spec_with(32), size_t(1) << 30, &progress);
-  EXPECT_EQ(stages, (std::vector<std::string>{"distance", "sign"}));
+  EXPECT_EQ(stages, (std::vector<std::string>{"distance", "sign", "sheets"}));
   EXPECT_GT(progress.polls(), 10);
 
   // Cancelled at the start, inside OpenVDB (its interrupter), and in the sign stage.
