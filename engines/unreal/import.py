@@ -119,28 +119,38 @@ def box_rows():
     return m, [inv[r] + [t[r]] for r in range(3)]
 
 
-def make_material(volumes):
+def masked_material_with_node(name, code_file, output_type, description, input_names):
+    """A new Masked material NAME in DESTINATION (replacing one of that name) holding a Custom node
+    whose code is CODE_FILE (beside this script), with OUTPUT_TYPE and one input per name."""
     tools = unreal.AssetToolsHelpers.get_asset_tools()
     mel = unreal.MaterialEditingLibrary
-    name = "M_Raywarp_@IDENT@"
     path = DESTINATION + "/" + name
     if unreal.EditorAssetLibrary.does_asset_exist(path):
         unreal.EditorAssetLibrary.delete_asset(path)
     material = tools.create_asset(name, DESTINATION, unreal.Material, unreal.MaterialFactoryNew())
     material.set_editor_property("blend_mode", unreal.BlendMode.BLEND_MASKED)
-    material.set_editor_property("tangent_space_normal", False)
-    with open(os.path.join(HERE, "RaywarpCustomNode_@STEM@.hlsl")) as f:
+    with open(os.path.join(HERE, code_file)) as f:
         code = f.read()
     custom = mel.create_material_expression(material, unreal.MaterialExpressionCustom, -400, 0)
     custom.set_editor_property("code", code)
-    custom.set_editor_property("output_type", unreal.CustomMaterialOutputType.CMOT_FLOAT4)
-    custom.set_editor_property("description", "raywarp @STEM@")
+    custom.set_editor_property("output_type", output_type)
+    custom.set_editor_property("description", description)
     inputs = []
-    for _, input_name, _ in INPUTS:
+    for input_name in input_names:
         item = unreal.CustomInput()
         item.set_editor_property("input_name", input_name)
         inputs.append(item)
     custom.set_editor_property("inputs", inputs)
+    return material, custom, path
+
+
+def make_material(volumes):
+    mel = unreal.MaterialEditingLibrary
+    material, custom, path = masked_material_with_node(
+        "M_Raywarp_@IDENT@", "RaywarpCustomNode_@STEM@.hlsl",
+        unreal.CustomMaterialOutputType.CMOT_FLOAT4, "raywarp @STEM@",
+        [input_name for _, input_name, _ in INPUTS])
+    material.set_editor_property("tangent_space_normal", False)
     outputs = []
     for output_name, output_type in (("WorldNormal", unreal.CustomMaterialOutputType.CMOT_FLOAT3),
                                      ("DepthOffset", unreal.CustomMaterialOutputType.CMOT_FLOAT1)):
@@ -197,28 +207,12 @@ def make_material(volumes):
 def make_remainder_material():
     """M_Raywarp_@IDENT@_Remainder: the rest of the mesh, Masked, two-sided, with a Custom node
     (RaywarpRemainderNode.hlsl) whose Opacity Mask is 0 inside the box."""
-    tools = unreal.AssetToolsHelpers.get_asset_tools()
     mel = unreal.MaterialEditingLibrary
-    name = "M_Raywarp_@IDENT@_Remainder"
-    path = DESTINATION + "/" + name
-    if unreal.EditorAssetLibrary.does_asset_exist(path):
-        unreal.EditorAssetLibrary.delete_asset(path)
-    material = tools.create_asset(name, DESTINATION, unreal.Material, unreal.MaterialFactoryNew())
-    material.set_editor_property("blend_mode", unreal.BlendMode.BLEND_MASKED)
-    material.set_editor_property("two_sided", True)
-    with open(os.path.join(HERE, "RaywarpRemainderNode.hlsl")) as f:
-        code = f.read()
-    custom = mel.create_material_expression(material, unreal.MaterialExpressionCustom, -400, 0)
-    custom.set_editor_property("code", code)
-    custom.set_editor_property("output_type", unreal.CustomMaterialOutputType.CMOT_FLOAT1)
-    custom.set_editor_property("description", "raywarp @STEM@: outside the box")
     names = ["PixelWorld", "WorldToBoxX", "WorldToBoxY", "WorldToBoxZ", "HalfExtents"]
-    inputs = []
-    for input_name in names:
-        item = unreal.CustomInput()
-        item.set_editor_property("input_name", input_name)
-        inputs.append(item)
-    custom.set_editor_property("inputs", inputs)
+    material, custom, path = masked_material_with_node(
+        "M_Raywarp_@IDENT@_Remainder", "RaywarpRemainderNode.hlsl",
+        unreal.CustomMaterialOutputType.CMOT_FLOAT1, "raywarp @STEM@: outside the box", names)
+    material.set_editor_property("two_sided", True)
     _, to_box = box_rows()
     world = mel.create_material_expression(material, unreal.MaterialExpressionWorldPosition, -1200, 0)
     mel.connect_material_expressions(world, "", custom, "PixelWorld")
