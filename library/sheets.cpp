@@ -81,10 +81,12 @@ void add_sheet_shells(const Mesh& mesh, const std::vector<int>& faces, const Box
     const Eigen::Vector3d lo = f.a.cwiseMin(f.b).cwiseMin(f.c).array() - reach;
     const Eigen::Vector3d hi = f.a.cwiseMax(f.b).cwiseMax(f.c).array() + reach;
     for (int k = 0; k < 3; ++k) {
-      // Texel centres origin + (i + 1/2) spacing within [lo, hi].
-      f.lo[k] = std::max(0, int(std::ceil((lo[k] - grid.origin[k]) / grid.spacing[k] - 0.5)));
-      f.hi[k] = std::min(grid.dims[k] - 1,
-                         int(std::floor((hi[k] - grid.origin[k]) / grid.spacing[k] - 0.5)));
+      // Texel centres origin + (i + 1/2) spacing within [lo, hi], clamped in double first (a
+      // vertex far away must not overflow the conversion).
+      const double first = std::ceil((lo[k] - grid.origin[k]) / grid.spacing[k] - 0.5);
+      const double last = std::floor((hi[k] - grid.origin[k]) / grid.spacing[k] - 0.5);
+      f.lo[k] = int(std::clamp(first, 0.0, double(grid.dims[k])));
+      f.hi[k] = int(std::clamp(last, -1.0, double(grid.dims[k] - 1)));
     }
   }
   parallel_for(
