@@ -23,6 +23,13 @@ std::vector<int> sheet_faces(const Mesh& mesh, const WindingNumber& winding, con
         if ((fmax.array() < lo.array()).any() || (fmin.array() > hi.array()).any()) return;
         const Eigen::Vector3d n = (b - a).cross(c - a);
         if (!(n.norm() > 0.0)) return;
+        // The signed grid first: a face with the solid behind it there is in the signed field
+        // (nearly every face of a closed part), and only the rest pay for the winding number.
+        const Eigen::Vector3d inward = (a + b + c) / 3.0 - offset * n.normalized();
+        if (grid.sample(inward).value() > 0.0) {
+          sheet[static_cast<size_t>(f)] = 2;
+          return;
+        }
         const Eigen::Vector3d centroid =
             mesh.vertex(int(f), 0) + mesh.vertex(int(f), 1) + mesh.vertex(int(f), 2);
         const Eigen::Vector3d normal = box.direction_to_object(n.normalized());

@@ -22,7 +22,8 @@ namespace raywarp {
 // crosses a voxel (measured: tests/sheets_test.cpp).
 constexpr double kSheetHalfVoxels = 1.0;
 
-// The faces of `mesh` that meet the grid's region (box frame) and that the winding number leaves
+// The faces of `mesh` that meet the grid's region (box frame; `grid` is the signed field, which
+// settles most faces: one with f > 0 behind it is in the field) and that the winding number leaves
 // outside on both sides: w < 1/2 at the face's centroid moved `offset` (object units) along its
 // normal either way, and that belong to a connected part (faces sharing vertices) most of whose
 // faces in the region are such faces: a card or a cloth, not the rim of a hole in a scan, which
