@@ -82,22 +82,42 @@ double stated_error(const nlohmann::json& side, const std::string& texture,
   return 0;
 }
 
+// A scene (its parsed document) baked as `raywarp bake` bakes it, rendered in memory, and
+// exported in every format into `dir`.
+struct Exported {
+  Scene scene;
+  MeshPtr mesh;
+  BakedBox baked;
+  Image reference;  // the in-memory textures' image
+  std::string stem;
+  nlohmann::json side;
+};
+Exported bake_and_export(const nlohmann::json& document, const fs::path& scene_file,
+                         const fs::path& dir) {
+  Exported e;
+  e.scene = load_scene_json(document, scene_file);
+  BakeSession session;
+  e.mesh = session.mesh(e.scene.mesh);
+  e.baked = session.bake(export_job(e.scene, 0, e.mesh));
+  e.reference = render(e.scene, e.mesh->mesh, {e.baked.textures});
+  ExportOptions options;
+  options.formats = parse_formats("all", "formats");
+  e.stem = export_stem(scene_file, 0);
+  e.side = export_box(e.baked, export_source(e.scene, document, 0, *e.mesh), options, dir, e.stem);
+  return e;
+}
+
 class ExportTest : public TempFolderTest, public ::testing::WithParamInterface<std::string> {};
 
 TEST_P(ExportTest, ReimportedTexturesRenderTheSameImage) {
   const fs::path scene_file = fs::path(RAYWARP_SOURCE_DIR) / "examples" / GetParam();
-  const nlohmann::json document = read_scene_document(scene_file);
-  const Scene scene = load_scene_json(document, scene_file);
-  BakeSession session;
-  MeshPtr mesh = session.mesh(scene.mesh);
-  const BakedBox baked = session.bake(export_job(scene, 0, mesh));
-  const Image reference = render(scene, mesh->mesh, {baked.textures});
-
-  ExportOptions options;
-  options.formats = parse_formats("all", "formats");
-  const std::string stem = export_stem(scene_file, 0);
-  const nlohmann::json side =
-      export_box(baked, export_source(scene, document, 0, *mesh), options, dir_, stem);
+  const Exported e = bake_and_export(read_scene_document(scene_file), scene_file, dir_);
+  const Scene& scene = e.scene;
+  const MeshPtr& mesh = e.mesh;
+  const BakedBox& baked = e.baked;
+  const Image& reference = e.reference;
+  const std::string& stem = e.stem;
+  const nlohmann::json& side = e.side;
   const double diagonal = 2.0 * baked.textures.box.half_extents.norm();
 
   for (ExportFormat format :
@@ -175,18 +195,14 @@ TEST_P(DepthCubeExportTest, ReimportedMapsRenderTheSameImage) {
   const fs::path scene_file = fs::path(RAYWARP_SOURCE_DIR) / "examples" / GetParam();
   nlohmann::json document = read_scene_document(scene_file);
   document["boxes"][0]["implicit"] = {{"type", "depth_cube"}, {"resolution", 128}};
-  const Scene scene = load_scene_json(document, scene_file);
-  BakeSession session;
-  MeshPtr mesh = session.mesh(scene.mesh);
-  const BakedBox baked = session.bake(export_job(scene, 0, mesh));
+  const Exported e = bake_and_export(document, scene_file, dir_);
+  const Scene& scene = e.scene;
+  const MeshPtr& mesh = e.mesh;
+  const BakedBox& baked = e.baked;
+  const Image& reference = e.reference;
+  const std::string& stem = e.stem;
+  const nlohmann::json& side = e.side;
   ASSERT_TRUE(baked.textures.uses_depth_cube);
-  const Image reference = render(scene, mesh->mesh, {baked.textures});
-
-  ExportOptions options;
-  options.formats = parse_formats("all", "formats");
-  const std::string stem = export_stem(scene_file, 0);
-  const nlohmann::json side =
-      export_box(baked, export_source(scene, document, 0, *mesh), options, dir_, stem);
   ASSERT_TRUE(side.contains("depth_cube"));
   EXPECT_FALSE(side["textures"].contains("distance"));
   bool warned = false;

@@ -144,6 +144,22 @@ def masked_material_with_node(name, code_file, output_type, description, input_n
     return material, custom, path
 
 
+def vector_parameter(material, name, value, y):
+    """A Vector Parameter NAME defaulting to VALUE (2 to 4 numbers) at height Y, behind a
+    Component Mask keeping its first components for a float2 or float3 input."""
+    mel = unreal.MaterialEditingLibrary
+    v = [float(x) for x in value] + [0.0] * (4 - len(value))
+    expr = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -1200, y)
+    expr.set_editor_property("parameter_name", name)
+    expr.set_editor_property("default_value", unreal.LinearColor(v[0], v[1], v[2], v[3]))
+    if len(value) < 4:
+        mask = mel.create_material_expression(material, unreal.MaterialExpressionComponentMask, -800, y)
+        set_props(mask, {"r": True, "g": True, "b": len(value) > 2, "a": False})
+        mel.connect_material_expressions(expr, "", mask, "")
+        expr = mask
+    return expr
+
+
 def make_material(volumes):
     mel = unreal.MaterialEditingLibrary
     material, custom, path = masked_material_with_node(
@@ -181,15 +197,7 @@ def make_material(volumes):
                 value = to_box["XYZ".index(input_name[-1])]
             elif kind == "box_to_world":
                 value = to_world["XYZ".index(input_name[-1])]
-            v = [float(x) for x in value] + [0.0] * (4 - len(value))
-            expr = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -1200, y)
-            expr.set_editor_property("parameter_name", input_name)
-            expr.set_editor_property("default_value", unreal.LinearColor(v[0], v[1], v[2], v[3]))
-            if len(value) < 4:  # a float2 or float3 input: its first components
-                mask = mel.create_material_expression(material, unreal.MaterialExpressionComponentMask, -800, y)
-                set_props(mask, {"r": True, "g": True, "b": len(value) > 2, "a": False})
-                mel.connect_material_expressions(expr, "", mask, "")
-                expr = mask
+            expr = vector_parameter(material, input_name, value, y)
         mel.connect_material_expressions(expr, "", custom, input_name)
     opacity = mel.create_material_expression(material, unreal.MaterialExpressionComponentMask, -150, 80)
     set_props(opacity, {"r": False, "g": False, "b": False, "a": True})
@@ -217,15 +225,8 @@ def make_remainder_material():
     world = mel.create_material_expression(material, unreal.MaterialExpressionWorldPosition, -1200, 0)
     mel.connect_material_expressions(world, "", custom, "PixelWorld")
     for i, input_name in enumerate(names[1:]):
-        value = to_box[i] if i < 3 else HALF_EXTENTS + [0.0]
-        expr = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -1200, 80 * (i + 1))
-        expr.set_editor_property("parameter_name", input_name)
-        expr.set_editor_property("default_value", unreal.LinearColor(*[float(x) for x in value]))
-        if i == 3:  # HalfExtents is a float3
-            mask = mel.create_material_expression(material, unreal.MaterialExpressionComponentMask, -800, 320)
-            set_props(mask, {"r": True, "g": True, "b": True, "a": False})
-            mel.connect_material_expressions(expr, "", mask, "")
-            expr = mask
+        value = to_box[i] if i < 3 else HALF_EXTENTS  # HalfExtents is a float3
+        expr = vector_parameter(material, input_name, value, 80 * (i + 1))
         mel.connect_material_expressions(expr, "", custom, input_name)
     albedo = mel.create_material_expression(material, unreal.MaterialExpressionVectorParameter, -400, -200)
     albedo.set_editor_property("parameter_name", "Albedo")
