@@ -25,8 +25,8 @@ std::vector<int> sheet_faces(const Mesh& mesh, const WindingNumber& winding, con
         if (!(n.norm() > 0.0)) return;
         // The signed grid first: a face with the solid behind it there is in the signed field
         // (nearly every face of a closed part), and only the rest pay for the winding number.
-        const Eigen::Vector3d inward = (a + b + c) / 3.0 - offset * n.normalized();
-        if (grid.sample(inward).value() > 0.0) {
+        const Eigen::Vector3d mid = (a + b + c) / 3.0, step = offset * n.normalized();
+        if (grid.sample(mid - step).value() > 0.0 && grid.sample(mid + step).value() < 0.0) {
           sheet[static_cast<size_t>(f)] = 2;
           return;
         }
@@ -36,7 +36,9 @@ std::vector<int> sheet_faces(const Mesh& mesh, const WindingNumber& winding, con
         const Eigen::Vector3d p = centroid / 3.0;
         const double behind = winding(p - offset * normal), front = winding(p + offset * normal);
         // 1: a sheet face; 2: in the region, in the signed field (or hidden inside a solid).
-        sheet[static_cast<size_t>(f)] = behind <= 0.5 && front <= 0.5 ? 1 : 2;
+        // Across any face w jumps by about 1: from 1 to 0 where the face bounds a solid, from
+        // about +1/2 to -1/2 across a sheet, whose two sides are then equally outside.
+        sheet[static_cast<size_t>(f)] = behind + front < 0.5 ? 1 : 2;
       },
       interrupter, "sheets");
   // Per connected part (faces sharing vertices): a part most of whose faces in the region are

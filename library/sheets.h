@@ -22,13 +22,13 @@ namespace raywarp {
 // crosses a voxel (measured: tests/sheets_test.cpp).
 constexpr double kSheetHalfVoxels = 1.0;
 
-// The faces of `mesh` that meet the grid's region (box frame; `grid` is the signed field, which
-// settles most faces: one with f > 0 behind it is in the field) and that the winding number leaves
-// outside on both sides: w < 1/2 at the face's centroid moved `offset` (object units) along its
-// normal either way, and that belong to a connected part (faces sharing vertices) most of whose
-// faces in the region are such faces: a card or a cloth, not the rim of a hole in a scan, which
-// keeps its signed field. A face with w > 1/2 behind it and < 1/2 in front is in the signed
-// field; one inside on both sides is hidden inside a solid. Degenerate faces are skipped. Polls
+// The faces of `mesh` that meet the grid's region (box frame) and have no inside of their own:
+// the winding numbers at the face's centroid moved `offset` (object units) along its normal
+// either way sum below 1/2 (w jumps by about 1 across any face: from 1 to 0 where the face bounds
+// a solid, from about +1/2 to -1/2 across a sheet), in a connected part (faces sharing vertices)
+// most of whose faces in the region are such faces: a card or a cloth, not the rim of a hole in a
+// scan, which keeps its signed field. `grid`, the signed field, settles most faces first: one
+// with f > 0 behind it and f < 0 in front is in the field. Degenerate faces are skipped. Polls
 // `interrupter` (stage "sheets").
 std::vector<int> sheet_faces(const Mesh& mesh, const WindingNumber& winding, const Box& box,
                              const Grid3<float>& grid, double offset,
