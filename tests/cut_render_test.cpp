@@ -4,9 +4,10 @@
 // than 1 % of the mesh's bounding-box diagonal):
 //  - box cut, solid and hollow: exact_cut_render (all triangles along each ray, the removed
 //    region subtracted analytically);
-//  - incision, hollow: the mesh subdivided, split at the box faces and at the cut plane, each
-//    side mapped by the exact forward map, rasterised;
-//  - thick shell and the peel: the CPU reference of the same ray cast (eq. 7), in double;
+//  - incision and peel, hollow: the mesh subdivided, split at the box faces and at the cut
+//    plane, each side mapped by the exact forward map, rasterised (the peel at 512 x 512);
+//  - thick shell, the solid incision and the solid peel: the CPU reference of the same ray cast
+//    (eq. 7), in double;
 //  - empty-space skipping on against off: the same image.
 #include <gtest/gtest.h>
 
@@ -56,12 +57,12 @@ Camera camera(const std::string& name) {
 }
 
 Image render_gl(const Prepared& p, const Camera& cam, const RenderSettings& settings,
-                gl::FrameStats* stats = nullptr) {
+                gl::FrameStats* stats = nullptr, int size = kSize) {
   context();
   gl::Renderer renderer;
   renderer.set_mesh(p.prepared.mesh());
   renderer.set_boxes(p.prepared.textures());
-  return renderer.render(cam, kSize, kSize, settings, stats);
+  return renderer.render(cam, size, size, settings, stats);
 }
 
 void save(const std::string& name, const Image& image) {
@@ -169,6 +170,66 @@ INSTANTIATE_TEST_SUITE_P(Bunny, IncisionTest, ::testing::Values("front.json", "s
                            return info.param.substr(0, info.param.find('.'));
                          });
 
+// Coverage disagreement with the exact truth along its outline: the pixels covered in one image
+// and not the other, and that per pixel of the truth's outline (covered pixels with an uncovered
+// 4-neighbour): the outline bias in pixels.
+struct OutlineBias {
+  long disagree = 0, outline = 0;
+  double pixels() const { return outline ? double(disagree) / outline : 0.0; }
+};
+OutlineBias outline_bias(const Image& image, const Image& truth) {
+  OutlineBias b;
+  const int w = truth.width, h = truth.height;
+  auto covered = [&](const Image& im, int x, int y) {
+    return x >= 0 && y >= 0 && x < w && y < h && std::isfinite(im.depth[size_t(y) * w + x]);
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      b.disagree += covered(image, x, y) != covered(truth, x, y);
+      b.outline +=
+          covered(truth, x, y) && (!covered(truth, x - 1, y) || !covered(truth, x + 1, y) ||
+                                   !covered(truth, x, y - 1) || !covered(truth, x, y + 1));
+    }
+  return b;
+}
+
+// The peel, hollow, at 512 x 512: the mesh split at the peel's cut plane (v = 0, the layer's
+// underside), each side mapped by the exact forward map, rasterised. The gap the flap vacates
+// shows the body's inside through it, as the hollow incision's does.
+class PeelTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PeelTest, HollowMatchesSplitGroundTruth) {
+  constexpr int kPeelSize = 512;
+  Prepared p = prepare("bunny_peel.json", [](Scene& s) { s.boxes[0].cut_mode = CutMode::Hollow; });
+  const Camera cam = camera(GetParam());
+  const BakedBox& box = p.prepared.boxes[0];
+  gl::FrameStats stats;
+  Image gl = render_gl(p, cam, p.scene.render, &stats, kPeelSize);
+  EXPECT_EQ(stats.nonfinite_pixels, 0);
+  auto F = [&](const Eigen::Vector3d& q) { return box.deformer->forward(q); };
+  // The cut plane: x_e = s_e (h_e - t), e the axis of the face the layer lies under.
+  const DeformerSpec& spec = p.scene.boxes[0].deformer;
+  const int e = spec.from_axis;
+  const double plane = spec.from_side * (box.textures.box.half_extents[e] - spec.thickness);
+  Mesh truth_mesh = ground_truth_mesh(p.prepared.mesh(), box.textures.box, F,
+                                      0.25 * box.textures.sdf.grid.voxel(), e, plane);
+  Image truth = rasterize(truth_mesh, cam, kPeelSize, kPeelSize, p.scene.render);
+  const std::string name = "bunny_peel_hollow_" + GetParam().substr(0, GetParam().size() - 5);
+  save(name + "_gl", gl);
+  save(name + "_truth", truth);
+  const double diagonal = diagonal_of(truth_mesh);
+  ImageComparison vs_truth = report(name, "ground truth", gl, truth, diagonal);
+  std::printf("[figures] %s: outline bias %.3f pixels\n", name.c_str(),
+              outline_bias(gl, truth).pixels());
+  EXPECT_GE(vs_truth.iou, 0.99);
+  EXPECT_LE(vs_truth.fraction_over, 0.01);
+}
+
+INSTANTIATE_TEST_SUITE_P(Bunny, PeelTest, ::testing::Values("front.json", "side_ortho.json"),
+                         [](const auto& info) {
+                           return info.param.substr(0, info.param.find('.'));
+                         });
+
 // Thick shell, the solid incision and the peel: no exact reference, so the CPU reference of
 // the same ray cast (eq. 6, 7) in double.
 class CpuReferenceTest : public ::testing::TestWithParam<std::string> {};
@@ -257,29 +318,6 @@ TEST(Peel, TextureInvertsThePeelOutsideTheCut) {
       "[figures] bunny_peel: residual max %.3g units over %ld texels; %ld texels in the "
       "cut left out\n",
       r.max, r.texels, r.in_cut);
-}
-
-// Coverage disagreement with the exact truth along its outline: the pixels covered in one image
-// and not the other, and that per pixel of the truth's outline (covered pixels with an uncovered
-// 4-neighbour): the outline bias in pixels.
-struct OutlineBias {
-  long disagree = 0, outline = 0;
-  double pixels() const { return outline ? double(disagree) / outline : 0.0; }
-};
-OutlineBias outline_bias(const Image& image, const Image& truth) {
-  OutlineBias b;
-  const int w = truth.width, h = truth.height;
-  auto covered = [&](const Image& im, int x, int y) {
-    return x >= 0 && y >= 0 && x < w && y < h && std::isfinite(im.depth[size_t(y) * w + x]);
-  };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      b.disagree += covered(image, x, y) != covered(truth, x, y);
-      b.outline +=
-          covered(truth, x, y) && (!covered(truth, x - 1, y) || !covered(truth, x + 1, y) ||
-                                   !covered(truth, x, y - 1) || !covered(truth, x, y + 1));
-    }
-  return b;
 }
 
 // A solid cap facing the camera (the box's front half removed) at 512 x 512: its outline, where

@@ -682,7 +682,7 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
 
 Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
                        const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
-                       double max_edge, int split_axis) {
+                       double max_edge, int split_axis, double split_at) {
   if (!(max_edge > 0.0) || !std::isfinite(max_edge))
     throw Error("ground_truth_mesh: max_edge = " + std::to_string(max_edge) +
                 ": must be a finite number > 0");
@@ -691,11 +691,14 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
   for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
     out.vertices.push_back(mesh.V.row(v).transpose());
   const Vec3 half = box.half_extents;
-  auto deform = [&](const Vec3& q) { return box.to_object(forward_local(q)); };
-  // Pieces on the negative side of the split plane: F as the limit from that side.
+  // Pieces on either side of the split plane: F as the limit from that side.
   const double nudge = 1e-9 * half.maxCoeff();
   auto deform_below = [&](Vec3 q) {
-    q[split_axis] = std::min(q[split_axis], -nudge);
+    q[split_axis] = std::min(q[split_axis], split_at - nudge);
+    return box.to_object(forward_local(q));
+  };
+  auto deform_above = [&](Vec3 q) {
+    if (split_axis >= 0) q[split_axis] = std::max(q[split_axis], split_at + nudge);
     return box.to_object(forward_local(q));
   };
   auto keep = [&](const Vec3& q) { return box.to_object(q); };
@@ -729,8 +732,8 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
       size_t n = pieces.size();
       for (size_t k = 0; k < n; ++k) {
         if (!pieces[k].inside) continue;
-        split_polygon(pieces[k].polygon, split_axis, 1.0, 0.0, inner, outer);
-        pieces[k].polygon = outer;  // q[split_axis] >= 0
+        split_polygon(pieces[k].polygon, split_axis, 1.0, split_at, inner, outer);
+        pieces[k].polygon = outer;  // q[split_axis] >= split_at
         if (!inner.empty()) pieces.push_back(Piece{inner, true, true});
       }
       std::erase_if(pieces, [](const Piece& p) { return p.polygon.empty(); });
@@ -749,7 +752,7 @@ Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
         if (piece.below)
           add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform_below);
         else
-          add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform);
+          add_subdivided(out, poly[0], poly[k], poly[k + 1], n, deform_above);
       }
     }
   }

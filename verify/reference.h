@@ -49,12 +49,13 @@ Image reference_render(const Mesh& mesh, const std::vector<BoxTextures>& boxes,
 // The mesh with every triangle that meets `box` split at the box faces and subdivided so that
 // its edges are shorter than `max_edge`; the pieces inside the box are mapped by
 // `forward_local` (the deformer's F in the box's local frame). Pieces outside are unchanged.
-// With split_axis >= 0 the inside pieces are also split at the plane q[split_axis] = 0, and those
-// on its negative side are mapped as limits from that side (F evaluated 1e-9 box sizes below
-// the plane): the ground truth of a deformer that cuts along that plane (an incision).
+// With split_axis >= 0 the inside pieces are also split at the plane q[split_axis] = split_at,
+// and each piece is mapped as the limit from its own side (F evaluated 1e-9 box sizes off the
+// plane): the ground truth of a deformer that cuts along that plane (an incision at 0, a peel
+// at its cut plane).
 Mesh ground_truth_mesh(const Mesh& mesh, const Box& box,
                        const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& forward_local,
-                       double max_edge, int split_axis = -1);
+                       double max_edge, int split_axis = -1, double split_at = 0.0);
 
 // Exact render of the mesh with a convex region of `box` removed (a box cut: no displacement),
 // independent of every grid: per pixel, the mesh's triangles along the ray (all of them, through
