@@ -93,6 +93,12 @@ ImageComparison compare_images(const Image& a, const Image& b, double depth_thre
     for (int x = 0; x < a.width; ++x) {
       bool ca = a.covered(x, y), cb = b.covered(x, y);
       if (ca || cb) ++either;
+      c.disagree += ca != cb;
+      auto b_covered = [&](int u, int v) {
+        return u >= 0 && v >= 0 && u < b.width && v < b.height && b.covered(u, v);
+      };
+      c.outline += cb && (!b_covered(x - 1, y) || !b_covered(x + 1, y) || !b_covered(x, y - 1) ||
+                          !b_covered(x, y + 1));
       if (!(ca && cb)) continue;
       ++c.common;
       double e = std::abs(static_cast<double>(a.depth_at(x, y)) - b.depth_at(x, y));

@@ -45,6 +45,11 @@ struct ImageComparison {
   double max_depth_error = 0.0;   // over common pixels
   double fraction_over = 0.0;     // common pixels with |depth error| > threshold
   double threshold = 0.0;
+  // The outline bias, in pixels: the pixels covered in one image and not the other, per pixel of
+  // b's outline (b's covered pixels with an uncovered 4-neighbour, the image's border counting
+  // as uncovered). b is the reference.
+  long disagree = 0, outline = 0;
+  double outline_bias() const { return outline ? static_cast<double>(disagree) / outline : 0.0; }
 };
 ImageComparison compare_images(const Image& a, const Image& b, double depth_threshold);
 
