@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <random>
 #include <sstream>
 #include <string>
@@ -105,6 +106,9 @@ struct Copy {
   const char* scene;
   double angle_deg;
 };
+
+// As GoogleTest names the case in its listing (and so ctest's name).
+void PrintTo(const Copy& c, std::ostream* os) { *os << c.scene << " at " << c.angle_deg; }
 
 class CopiesOfExactDeformations : public ::testing::TestWithParam<Copy> {};
 

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <ostream>
 #include <sstream>
 #include <string>
 
@@ -55,6 +56,11 @@ struct ZooCase {
   std::string scene;
   int width, height;
 };
+
+// As GoogleTest names the case in its listing (and so ctest's name).
+void PrintTo(const ZooCase& c, std::ostream* os) {
+  *os << c.scene << " at " << c.width << "x" << c.height;
+}
 
 class ZooTest : public ::testing::TestWithParam<ZooCase> {};
 
