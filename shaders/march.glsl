@@ -95,6 +95,10 @@ uniform float u_lipschitz;        // bound of |I + J_D| outside the cut
 uniform float u_cut_margin;       // sqrt(3) (alpha texel + deformation texel / 2)
 #endif
 const float kSqrt3 = 1.7320508;
+const float kGolden = 0.618034;  // (sqrt(5) - 1) / 2
+const int kGrazeSteps = 6;       // golden-section steps for a grazing ray's peak
+const float kGrazeMargin = 0.1;  // of the three samples' span: how near the surface their
+                                 // parabola's peak must come for the search
 
 #ifdef RAYWARP_DEPTH_CUBE
 // The depth-map cube, as depth_cube_value (library/depth_cube.cpp): per face f_k = d_k - H_k, d_k
@@ -374,6 +378,15 @@ bool raywarp_clip(vec3 o, vec3 d, float t_far, out float t0, out float t1) {
   return t0 < t1;
 }
 
+// The peak of the parabola through (x0, y0), (x1, y1), (x2, y2), x0 < x1 < x2, y1 above both
+// others.
+float parabola_peak(float x0, float x1, float x2, float y0, float y1, float y2) {
+  float d1 = (y1 - y0) / max(x1 - x0, 1e-30), d2 = (y2 - y1) / max(x2 - x1, 1e-30);
+  float a = (d2 - d1) / max(x2 - x0, 1e-30);  // < 0
+  float b = (d1 * (x2 - x1) + d2 * (x1 - x0)) / max(x2 - x0, 1e-30);  // slope at x1
+  return a < 0.0 ? y1 - b * b / (4.0 * a) : y1;
+}
+
 // The ray caster (sections 3 and 5), one function that every front end calls: raywarp's fragment
 // shader (raycast.frag.glsl), the engines' shaders translated from this text, the CPU reference's
 // twin (verify/reference.cpp). Searches [t0, t1] (raywarp_clip) of the ray o + t d in the box frame
@@ -428,6 +441,11 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
   bool hit = false, front = true;
 #else
   bool hit = value(s) > 0.0;
+#endif
+#ifndef RAYWARP_CUT_HOLLOW
+  float t_before = t0, v_before = -1e30;  // the sample before the last one
+  bool grazed = false;                    // the first grazing bracket, if any
+  float graze_l = t0, graze_r = t0;
 #endif
   // Linear search, bounded by u_max_steps (+ the 6 face samples).
   for (int i = 1; i <= u_max_steps + 6 && !hit && t < t1; ++i) {
@@ -523,9 +541,53 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
     }
 #endif
 #endif
+#ifndef RAYWARP_CUT_HOLLOW
+    // A grazing ray: the value peaks at the last sample, between two lower ones, and the
+    // parabola through the three comes near the surface. The surface may reach past the ray
+    // between the samples (a silhouette, a thin part); the first such bracket is searched after
+    // the march.
+    float v_last = value(s);
+    if (!hit && !grazed && s.valid && sn.valid && v_last > v && v_last > v_before &&
+        parabola_peak(t_before, t, tn, v_before, v_last, v) > -kGrazeMargin * (tn - t_before)) {
+      grazed = true;
+      graze_l = t_before;
+      graze_r = tn;
+    }
+    t_before = t;
+    v_before = s.valid ? value(s) : -1e30;
+#endif
     t = tn;
     s = sn;
     was_in_box = in_box(pn);
+  }
+#endif
+#if !defined(RAYWARP_CUT_HOLLOW) && !defined(RAYWARP_SAMPLING_BOUNDED)
+  // The first grazing bracket in front of the hit (or with no hit): golden-section search for
+  // the value's peak in it, and the hit there where the peak is inside.
+  if (grazed && (!hit || graze_r <= lo)) {
+    float l = graze_l, r = graze_r;
+    float x1 = r - kGolden * (r - l), x2 = l + kGolden * (r - l);
+    float f1 = value(sample_at(o + x1 * d, true)), f2 = value(sample_at(o + x2 * d, true));
+    for (int k = 0; k < kGrazeSteps && max(f1, f2) <= 0.0; ++k) {
+      if (f1 > f2) {
+        r = x2;
+        x2 = x1;
+        f2 = f1;
+        x1 = r - kGolden * (r - l);
+        f1 = value(sample_at(o + x1 * d, true));
+      } else {
+        l = x1;
+        x1 = x2;
+        f1 = f2;
+        x2 = l + kGolden * (r - l);
+        f2 = value(sample_at(o + x2 * d, true));
+      }
+    }
+    if (max(f1, f2) > 0.0) {
+      hit = true;
+      lo = graze_l;
+      hi = f1 > 0.0 ? x1 : x2;
+    }
   }
 #endif
   if (!hit) return false;

@@ -102,6 +102,20 @@ double value(const BoxTextures& box, const Sample& s) {
 }
 
 constexpr double kSqrt3 = 1.7320508075688772;
+// A grazing ray's search (shaders/march.glsl, raywarp_cast): golden-section steps for the value's
+// peak, and how near the surface (of the three samples' span) their parabola's peak must come.
+constexpr double kGolden = 0.6180339887498949;
+constexpr int kGrazeSteps = 6;
+constexpr double kGrazeMargin = 0.1;
+
+// The peak of the parabola through (x0, y0), (x1, y1), (x2, y2), x0 < x1 < x2, y1 above both
+// others.
+double parabola_peak(double x0, double x1, double x2, double y0, double y1, double y2) {
+  const double d1 = (y1 - y0) / std::max(x1 - x0, 1e-30), d2 = (y2 - y1) / std::max(x2 - x1, 1e-30);
+  const double a = (d2 - d1) / std::max(x2 - x0, 1e-30);
+  const double b = (d1 * (x2 - x1) + d2 * (x1 - x0)) / std::max(x2 - x0, 1e-30);
+  return a < 0.0 ? y1 - b * b / (4.0 * a) : y1;
+}
 
 // How far the ray may advance without passing a hit (the shader's skip_distance).
 double skip_distance(const BoxTextures& box, const Sample& s) {
@@ -497,6 +511,9 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   bool was_in_box = box.box.contains_local(o + t0 * d);
   Sample s = at(t0, false);
   bool hit = !hollow && value(box, s) > 0.0, front = true;
+  double t_before = t0, v_before = -1e30;  // the sample before the last one
+  bool grazed = false;                     // the first grazing bracket, if any
+  double graze_l = t0, graze_r = t0;
   const bool bounded = settings.sampling == "bounded" && !box.has_cut && !box.moves_nothing;
   if (bounded) {
     hit = bounded_search(box, o, d, t0, t1, crossings, settings, &lo, &hi);
@@ -585,9 +602,50 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
         }
       }
     }
+    if (!hollow) {
+      // A grazing ray: the value peaks at the last sample, between two lower ones, and the
+      // parabola through the three comes near the surface; the first such bracket is searched
+      // after the march (the shader's rule).
+      const double v_last = value(box, s), v = value(box, sn);
+      if (!hit && !grazed && s.valid && sn.valid && v_last > v && v_last > v_before &&
+          parabola_peak(t_before, t, tn, v_before, v_last, v) > -kGrazeMargin * (tn - t_before)) {
+        grazed = true;
+        graze_l = t_before;
+        graze_r = tn;
+      }
+      t_before = t;
+      v_before = s.valid ? v_last : -1e30;
+    }
     t = tn;
     s = sn;
     was_in_box = box.box.contains_local(pn);
+  }
+  // The first grazing bracket in front of the hit (or with no hit): golden-section search for
+  // the value's peak in it, and the hit there where the peak is inside.
+  if (!hollow && !bounded && grazed && (!hit || graze_r <= lo)) {
+    double l = graze_l, r = graze_r;
+    double x1 = r - kGolden * (r - l), x2 = l + kGolden * (r - l);
+    double f1 = value(box, at(x1, true)), f2 = value(box, at(x2, true));
+    for (int k = 0; k < kGrazeSteps && std::max(f1, f2) <= 0.0; ++k) {
+      if (f1 > f2) {
+        r = x2;
+        x2 = x1;
+        f2 = f1;
+        x1 = r - kGolden * (r - l);
+        f1 = value(box, at(x1, true));
+      } else {
+        l = x1;
+        x1 = x2;
+        f1 = f2;
+        x2 = l + kGolden * (r - l);
+        f2 = value(box, at(x2, true));
+      }
+    }
+    if (std::max(f1, f2) > 0.0) {
+      hit = true;
+      lo = graze_l;
+      hi = f1 > 0.0 ? x1 : x2;
+    }
   }
   if (!hit) return std::nullopt;
   if (!hollow)  // binary refinement between the last sample outside and the first inside
