@@ -22,6 +22,7 @@
 #include "base/atomic_file.h"
 #include "base/error.h"
 #include "base/format.h"
+#include "bench/marked_block.h"
 #include "cli/pipeline.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
@@ -285,22 +286,8 @@ int run(int argc, char** argv) {
   }
   std::cout << table.str();
   if (!out.empty()) {
-    const std::string begin = "<!-- bench:begin -->", end = "<!-- bench:end -->";
-    std::string text;
-    {
-      std::ifstream in(out);
-      std::stringstream buffer;
-      buffer << in.rdbuf();
-      text = buffer.str();
-    }
-    const size_t b = text.find(begin), e = text.find(end);
-    const std::string block = begin + "\n" + table.str() + end;
-    if (b != std::string::npos && e != std::string::npos && e > b)
-      text = text.substr(0, b) + block + text.substr(e + end.size());
-    else
-      text = "# Bake and frame times\n\n" + block + "\n";
     try {
-      write_file_atomic(out, text);
+      bench::write_marked_block(out, "bench", table.str(), "Bake and frame times");
     } catch (const Error& e) {
       std::cerr << "raywarp_bench: " << e.what() << "\n";
       return 2;

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "bench/marked_block.h"
 #include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
@@ -135,26 +136,6 @@ Image side_by_side(const Image& a, const Image& b) {
       for (int c = 0; c < 4; ++c) out.rgba[4 * to + c] = from.rgba[4 * src + c];
     }
   return out;
-}
-
-// Replaces the marked block of `path` (or writes the file), atomically.
-void write_block(const std::string& path, const std::string& table) {
-  const std::string begin = "<!-- implicit_compare:begin -->",
-                    end = "<!-- implicit_compare:end -->";
-  std::string text;
-  {
-    std::ifstream in(path);
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    text = buffer.str();
-  }
-  const size_t b = text.find(begin), e = text.find(end);
-  const std::string block = begin + "\n" + table + end;
-  if (b != std::string::npos && e != std::string::npos && e > b)
-    text = text.substr(0, b) + block + text.substr(e + end.size());
-  else
-    text = "# Depth cube against distance grid\n\n" + block + "\n";
-  write_file_atomic(path, text.data(), text.size());
 }
 
 }  // namespace
@@ -286,7 +267,8 @@ int main(int argc, char** argv) {
   std::cout << table.str();
   if (!out.empty()) {
     try {
-      write_block(out, table.str());
+      bench::write_marked_block(out, "implicit_compare", table.str(),
+                                "Depth cube against distance grid");
     } catch (const std::exception& e) {
       std::cerr << "raywarp_implicit_compare: " << e.what() << "\n";
       return 2;

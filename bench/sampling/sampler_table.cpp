@@ -14,14 +14,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "base/atomic_file.h"
 #include "base/error.h"
+#include "bench/marked_block.h"
 #include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
@@ -55,24 +54,6 @@ std::vector<fs::path> scenes() {
   std::sort(zoo.begin(), zoo.end());
   out.insert(out.end(), zoo.begin(), zoo.end());
   return out;
-}
-
-void write_block(const std::string& path, const std::string& table) {
-  const std::string begin = "<!-- sampler_table:begin -->", end = "<!-- sampler_table:end -->";
-  std::string text;
-  {
-    std::ifstream in(path);
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    text = buffer.str();
-  }
-  const size_t b = text.find(begin), e = text.find(end);
-  const std::string block = begin + "\n" + table + end;
-  if (b != std::string::npos && e != std::string::npos && e > b)
-    text = text.substr(0, b) + block + text.substr(e + end.size());
-  else
-    text = "# Samplers\n\n" + block + "\n";
-  write_file_atomic(path, text.data(), text.size());
 }
 
 std::string percent(long part, long whole) {
@@ -191,6 +172,6 @@ int main(int argc, char** argv) {
     table << line;
   }
   std::cout << table.str();
-  if (!out.empty()) write_block(out, table.str());
+  if (!out.empty()) bench::write_marked_block(out, "sampler_table", table.str(), "Samplers");
   return 0;
 }
