@@ -554,7 +554,7 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
       graze_r = tn;
     }
     t_before = t;
-    v_before = s.valid ? value(s) : -1e30;
+    v_before = s.valid ? v_last : -1e30;
 #endif
     t = tn;
     s = sn;
