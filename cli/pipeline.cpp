@@ -54,6 +54,9 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
           << c.wanted << ")";
     else
       log << " within " << fmt("%g", mib(c.budget_bytes)) << " MiB";
+    if (c.sheets_raised_from > 0)
+      log << "; raised from " << c.sheets_raised_from << " for the sheets in the box (their "
+          << "shells' outline within half a pixel of a 1920x1080 view of the box)";
     log << "\n";
   }
   if (const StageReport* s = r.stage(Stage::DistanceGrid)) {

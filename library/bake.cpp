@@ -79,6 +79,7 @@ std::vector<char> save_sdf(const DistanceGrid& g) {
   w.integer(g.active_voxels);
   w.integer(g.sheet_faces);
   w.number(g.sheet_half_thickness);
+  w.number(g.sheet_area_share);
   w.number(g.bake_seconds);
   return w.bytes();
 }
@@ -93,6 +94,7 @@ bool load_sdf(const std::vector<char>& bytes, DistanceGrid& g) {
   d.active_voxels = r.integer();
   d.sheet_faces = r.integer();
   d.sheet_half_thickness = r.number();
+  d.sheet_area_share = r.number();
   d.bake_seconds = r.number();
   if (!r.ok() || !r.at_end()) return false;
   g = std::move(d);
@@ -698,17 +700,34 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     s.seconds = tex.depth_cube.bake_seconds;
     report.stages.push_back(s);
   } else {
-    sdf_key = (Key() << "distance grid\nmesh" << job.mesh->hash << "\n"
-                     << box_key(spec.box) << "\nresolution" << implicit.resolution << "band"
-                     << implicit.band_voxels << "margin" << implicit.margin_voxels << "sheets"
-                     << kSheetHalfVoxels)
-                  .str();
-    const Source source = stage(
-        tex.sdf, "sdf", sdf_key, counters_.distance_grid,
-        [&] {
-          return bake_distance_grid(mesh, spec.box, implicit, kMemoryBudgetBytes, interrupter);
-        },
-        save_sdf, load_sdf);
+    auto bake_grid = [&] {
+      sdf_key = (Key() << "distance grid\nmesh" << job.mesh->hash << "\n"
+                       << box_key(spec.box) << "\nresolution" << implicit.resolution << "band"
+                       << implicit.band_voxels << "margin" << implicit.margin_voxels << "sheets"
+                       << kSheetHalfVoxels)
+                    .str();
+      return stage(
+          tex.sdf, "sdf", sdf_key, counters_.distance_grid,
+          [&] {
+            return bake_distance_grid(mesh, spec.box, implicit, kMemoryBudgetBytes, interrupter);
+          },
+          save_sdf, load_sdf);
+    };
+    Source source = bake_grid();
+    // A sheet's shell is as thick as the voxel makes it: an automatic grid with sheets in it is
+    // baked again as fine as they ask (kSheetAutoResolution), unless they are stray faces (a
+    // scan's loose fragments).
+    if (ImplicitChoice& c = report.implicit_choice;
+        c.automatic && tex.sdf.sheet_area_share >= kSheetAreaShare) {
+      const int finer = sheet_resolution(spec.box, implicit);
+      if (finer > implicit.resolution) {
+        c.sheets_raised_from = implicit.resolution;
+        c.wanted = std::max(c.wanted, kSheetAutoResolution);
+        c.budget_bound = finer < c.wanted;
+        c.resolution = implicit.resolution = finer;
+        source = bake_grid();
+      }
+    }
     report.stages.push_back(
         grid_stage(Stage::DistanceGrid, tex.sdf.grid, tex.sdf.bake_seconds, source));
     report.band_voxels = tex.sdf.band_voxels;

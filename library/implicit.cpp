@@ -338,6 +338,29 @@ std::uint64_t distance_grid_bytes(const Box& box, const ImplicitSpec& spec) {
   return static_cast<std::uint64_t>(grid_shape(box, spec).texels()) * sizeof(float);
 }
 
+namespace {
+
+constexpr int kMaxResolution = 1024, kStep = 8;
+
+std::uint64_t budget_bytes(const ImplicitSpec& spec) {
+  return static_cast<std::uint64_t>(spec.max_mib * double(1 << 20));
+}
+
+// `resolution`, lowered in steps of kStep until the implicit of `spec` over `box` fits its
+// max_mib.
+int within_budget(const Box& box, const ImplicitSpec& spec, int resolution) {
+  ImplicitSpec s = spec;
+  auto bytes = [&](int r) {
+    s.resolution = r;
+    return spec.type == "depth_cube" ? depth_cube_bytes(box.half_extents, r)
+                                     : distance_grid_bytes(box, s);
+  };
+  while (resolution > kStep && bytes(resolution) > budget_bytes(spec)) resolution -= kStep;
+  return resolution;
+}
+
+}  // namespace
+
 ImplicitChoice choose_implicit_resolution(const Mesh& mesh, const Box& box,
                                           const ImplicitSpec& spec, Interrupter* interrupter) {
   ImplicitChoice c;
@@ -350,24 +373,20 @@ ImplicitChoice choose_implicit_resolution(const Mesh& mesh, const Box& box,
   c.limbs = probe.limbs;
   c.feature = probe.quantile(kFeatureQuantile);
   const double longest = 2.0 * box.half_extents.maxCoeff();
-  constexpr int kMaxResolution = 1024, kStep = 8;
   c.wanted = kAutoImplicitFloorResolution;
   if (c.feature > 0.0) {
     const double voxels = std::ceil(kFeatureVoxels * longest / c.feature / kStep) * kStep;
     c.wanted =
         int(std::clamp(voxels, double(kAutoImplicitFloorResolution), double(kMaxResolution)));
   }
-  c.budget_bytes = static_cast<std::uint64_t>(spec.max_mib * double(1 << 20));
-  ImplicitSpec s = spec;
-  auto bytes = [&](int resolution) {
-    s.resolution = resolution;
-    return spec.type == "depth_cube" ? depth_cube_bytes(box.half_extents, resolution)
-                                     : distance_grid_bytes(box, s);
-  };
-  c.resolution = c.wanted;
-  while (c.resolution > kStep && bytes(c.resolution) > c.budget_bytes) c.resolution -= kStep;
+  c.budget_bytes = budget_bytes(spec);
+  c.resolution = within_budget(box, spec, c.wanted);
   c.budget_bound = c.resolution < c.wanted;
   return c;
+}
+
+int sheet_resolution(const Box& box, const ImplicitSpec& spec) {
+  return within_budget(box, spec, kSheetAutoResolution);
 }
 
 DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const ImplicitSpec& spec,
@@ -411,7 +430,8 @@ DistanceGrid bake_distance_grid(const Mesh& mesh, const Box& box, const Implicit
   // Faces the winding number leaves outside on both sides (sheets, cards, fins, closed parts
   // thinner than a voxel) have no surface in the signed field: each becomes a thin shell.
   const double voxel = grid.voxel();
-  const std::vector<int> sheets = sheet_faces(mesh, winding, box, grid, 0.5 * voxel, interrupter);
+  const std::vector<int> sheets =
+      sheet_faces(mesh, winding, box, grid, 0.5 * voxel, interrupter, &result.sheet_area_share);
   result.sheet_faces = static_cast<long>(sheets.size());
   result.sheet_half_thickness = sheets.empty() ? 0.0 : kSheetHalfVoxels * voxel;
   add_sheet_shells(mesh, sheets, box, result.sheet_half_thickness, grid, interrupter);

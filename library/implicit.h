@@ -19,7 +19,8 @@ struct ImplicitChoice {
   int samples = 0, hits = 0, limbs = 0;  // the probe's (ThicknessProbe)
   int wanted = 0;                        // the resolution the feature asked for
   std::uint64_t budget_bytes = 0;
-  bool budget_bound = false;  // the budget held it under `wanted`
+  bool budget_bound = false;   // the budget held it under `wanted`
+  int sheets_raised_from = 0;  // the feature's resolution, when sheets raised it (else 0)
 };
 
 // The resolution of `spec` (its own when not "auto"). For "auto": probe_thickness of the part of
@@ -29,6 +30,10 @@ struct ImplicitChoice {
 ImplicitChoice choose_implicit_resolution(const Mesh& mesh, const Box& box,
                                           const ImplicitSpec& spec,
                                           Interrupter* interrupter = nullptr);
+
+// The resolution an automatic distance grid with sheets in it takes (library/sheets.h):
+// kSheetAutoResolution, lowered in steps of 8 until the grid fits spec.max_mib.
+int sheet_resolution(const Box& box, const ImplicitSpec& spec);
 
 // Bytes of the distance grid of `spec` (an explicit resolution) over `box`, margin included, as
 // bake_distance_grid lays it out.

@@ -26,6 +26,14 @@ constexpr int kAutoResolution = 0;
 // twice a sheet's) spans at least kFeatureVoxels voxels, from kAutoImplicitFloorResolution up,
 // within ImplicitSpec::max_mib (choose_implicit_resolution, library/implicit.h).
 constexpr int kAutoImplicitFloorResolution = 128;
+// With sheets in the box (library/sheets.h) the automatic distance grid takes at least this
+// resolution, within max_mib. A sheet is drawn as a shell about a voxel thick, and its outline
+// is off by about 0.13 voxel (the twisted card of tests/sheets_test.cpp at 128, 256 and 384): for
+// half a pixel in a 1920x1080 view with the box's longest side across its 1080 rows, a voxel may
+// span 0.5 / 0.13 = 3.8 pixels, 284 voxels along that side, rounded up to a multiple of 8.
+constexpr int kSheetAutoResolution = 288;
+// ... when the sheets hold at least this share of the area of the faces in the box.
+constexpr double kSheetAreaShare = 0.01;
 constexpr double kFeatureVoxels = 5.0;
 constexpr double kFeatureQuantile = 0.05;
 

@@ -20,7 +20,7 @@ namespace raywarp {
 // interpolation of s - d between texel centres on either side of a sheet peaks at s - (up to
 // sqrt(3) / 2 voxel) at the sheet: with s = 1 voxel the shell has no hole wherever the sheet
 // crosses a voxel (measured: tests/sheets_test.cpp).
-constexpr double kSheetHalfVoxels = 1.0;
+constexpr double kSheetHalfVoxels = 0.6;
 
 // The faces of `mesh` that meet the grid's region (box frame) and have no inside of their own:
 // the winding numbers at the face's centroid moved `offset` (object units) along its normal
@@ -30,9 +30,10 @@ constexpr double kSheetHalfVoxels = 1.0;
 // scan, which keeps its signed field. `grid`, the signed field, settles most faces first: one
 // with f > 0 behind it and f < 0 in front is in the field. Degenerate faces are skipped. Polls
 // `interrupter` (stage "sheets").
+// With `area_share`, also the sheet faces' area over the area of all faces in the region.
 std::vector<int> sheet_faces(const Mesh& mesh, const WindingNumber& winding, const Box& box,
                              const Grid3<float>& grid, double offset,
-                             Interrupter* interrupter = nullptr);
+                             Interrupter* interrupter = nullptr, double* area_share = nullptr);
 
 // grid = max(grid, half - d) where d is the distance (box frame) from a texel centre to the
 // nearest face of `faces`, within half + 2 voxels of them (beyond, half - d is below any value

@@ -28,6 +28,7 @@ struct DistanceGrid {
   // Faces with no inside of their own, drawn as shells of this half thickness (library/sheets.h).
   long sheet_faces = 0;
   double sheet_half_thickness = 0.0;  // object units
+  double sheet_area_share = 0.0;      // their area over that of all faces meeting the grid's region
   double bake_seconds = 0.0;
 };
 
