@@ -115,6 +115,36 @@ ImageComparison compare_images(const Image& a, const Image& b, double depth_thre
   return c;
 }
 
+Image difference_image(const Image& a, const Image& b, double depth_threshold) {
+  if (a.width != b.width || a.height != b.height)
+    throw Error("difference_image: sizes differ: " + std::to_string(a.width) + " x " +
+                std::to_string(a.height) + " and " + std::to_string(b.width) + " x " +
+                std::to_string(b.height));
+  Image d(a.width, a.height);
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      const bool ca = a.covered(x, y), cb = b.covered(x, y);
+      uint8_t rgb[3] = {255, 255, 255};
+      if (ca && cb) {
+        const bool over =
+            std::abs(static_cast<double>(a.depth_at(x, y)) - b.depth_at(x, y)) > depth_threshold;
+        rgb[0] = over ? 0 : 200;
+        rgb[1] = over ? 170 : 200;
+        rgb[2] = over ? 0 : 200;
+      } else if (ca) {
+        rgb[1] = rgb[2] = 0;
+      } else if (cb) {
+        rgb[0] = rgb[1] = 0;
+      }
+      uint8_t* px = &d.rgba[4 * (static_cast<size_t>(y) * a.width + x)];
+      px[0] = rgb[0];
+      px[1] = rgb[1];
+      px[2] = rgb[2];
+      px[3] = 255;
+    }
+  return d;
+}
+
 Image read_png(const std::string& path) {
   int w = 0, h = 0, n = 0;
   unsigned char* pixels = stbi_load(path.c_str(), &w, &h, &n, 4);

@@ -52,5 +52,9 @@ struct ImageComparison {
   double outline_bias() const { return outline ? static_cast<double>(disagree) / outline : 0.0; }
 };
 ImageComparison compare_images(const Image& a, const Image& b, double depth_threshold);
+// The comparison as a picture: grey where both are covered and agree within depth_threshold,
+// green where the depths differ by more, red where only a is covered, blue where only b is,
+// white where neither. Throws Error when their sizes differ.
+Image difference_image(const Image& a, const Image& b, double depth_threshold);
 
 }  // namespace raywarp
