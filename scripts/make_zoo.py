@@ -27,6 +27,12 @@ MESHES = [
      ([1.5, 1.0, 13], [0.2, 0.6, -0.4], [0, 1, 0], 36), "the head with ears and glasses"),
     ("scan_trex", "scan_rs1.ply.xz", False, ([-45, 25, -609], [37, 37, 31], [0, 0, 0]), 2, 60,
      ([-23, -4, -200], [-23, -4, -656], [1, 0, 0], 36), "a T-rex's head, teeth and claws in a range scan"),
+    ("devil_hair", "devil_hair.ply.xz", False, ([0, 0.5, 7.75], [14.5, 17.5, 12.75], [0, 0, 0]), 2, 90,
+     ([50, 60, 20], [0, 0, 5], [0, 0, 1], 36),
+     "an open head with separate eyeballs and 12 hair cards (open sheets) down its back"),
+    ("man_cape", "man_cape.ply.xz", False, ([0, 0.05, 0.19], [0.2, 0.16, 0.33], [0, 0, 0]), 2, 60,
+     ([0.8, 1.1, 0.45], [0, 0.03, 0.15], [0, 0, 1], 28),
+     "a figure's upper body and head with a cape (an open, folded sheet) and a collar (a separate shell)"),
 ]
 
 
@@ -37,6 +43,10 @@ SINGLE = [
       "cut_mode": "solid"},
      ([-0.55, -0.45, 0], [-0.1875, 0.0325, -0.0275], [0, 0, 1], 20),
      "a solid cut of the whole figure, seen at one hand (a voxel about a finger thick)"),
+    ("card_twist", "card.ply", ([0.5, 11, 0], [2.2, 1, 1], [0, 0, 0]),
+     {"deformer": {"type": "twist", "axis": "x", "angle_deg": 180}},
+     ([0.5, 14.5, 7], [0.5, 11, 0], [0, 1, 0], 36),
+     "a single card (an open sheet, 4 x 1.5 units) twisted half a turn"),
 ]
 
 

@@ -45,7 +45,7 @@ with tempfile.TemporaryDirectory() as tmp:
                    "--height", "512", "--time", "5", "--no-cache"], tmp)
         bake = re.search(r"textures: \d+ baked in ([\d.]+) s", log)
         frame = re.search(r"frames: median ([\d.]+) ms", log)
-        grid = re.search(r"implicit resolution auto: .*for 5 voxels across: (\d+)", log)
+        grid = re.search(r"implicit resolution auto: .*?: (\d+)(?: within|, held)", log)
         deformer = scene["boxes"][0]["deformer"]["type"]
         iou, over, bias, mib = figures.get(name, ("?", "?", "?", "?"))
         note = notes.get(name, "meets both marks")
