@@ -124,24 +124,20 @@ void texel_range(const Grid3<float>& grid, const Eigen::Vector3d& lo, const Eige
 }  // namespace
 
 std::vector<std::array<int, 2>> sheet_open_edges(const Mesh& mesh, const std::vector<int>& faces) {
-  std::vector<std::uint64_t> edges;
-  edges.reserve(static_cast<size_t>(mesh.F.rows()) * 3);
   auto key = [](int u, int w) {
     return (std::uint64_t(std::min(u, w)) << 32) | std::uint32_t(std::max(u, w));
   };
-  for (long f = 0; f < mesh.F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const int u = mesh.F(f, c), w = mesh.F(f, (c + 1) % 3);
-      if (u != w) edges.push_back(key(u, w));
-    }
-  std::sort(edges.begin(), edges.end());
+  std::vector<std::uint64_t> boundary;
+  for_each_edge_use(mesh, [&](int u, int w, int uses) {
+    if (uses == 1) boundary.push_back(key(u, w));
+  });
+  std::sort(boundary.begin(), boundary.end());
   std::vector<std::array<int, 2>> open;
   for (const int f : faces)
     for (int c = 0; c < 3; ++c) {
       const int u = mesh.F(f, c), w = mesh.F(f, (c + 1) % 3);
-      if (u == w) continue;
-      const auto range = std::equal_range(edges.begin(), edges.end(), key(u, w));
-      if (range.second - range.first == 1) open.push_back({u, w});
+      if (u != w && std::binary_search(boundary.begin(), boundary.end(), key(u, w)))
+        open.push_back({u, w});
     }
   return open;
 }
