@@ -13,6 +13,7 @@
 #include "base/parallel.h"
 #include "deformers/registry.h"
 #include "deformers/simulation.h"
+#include "deformers/turn_paths.h"
 
 namespace raywarp {
 
@@ -26,6 +27,10 @@ constexpr double kEpsilon = 1e-10;         // eps, of R's largest diagonal entry
 // Below this least spread of the sources (the smallest eigenvalue of their scatter, over the
 // lattice's nodes and the box diagonal squared) the cycle runs in double (see make_from_mesh).
 constexpr double kFlatSpread = 1e-9;
+// Pairs that turn more than this (radians, about the line they turn about: deformers/turn_paths.h)
+// are fitted in steps of at most kTurnStep (fit_pairs).
+constexpr double kTurnThreshold = 1.75;
+constexpr double kTurnStep = 0.75;
 
 std::string vector_text(const Eigen::Vector3d& v) {
   return "[" + shortest_text(v.x()) + ", " + shortest_text(v.y()) + ", " + shortest_text(v.z()) +
@@ -911,6 +916,227 @@ void check_params(const Eigen::Vector3d& h, const FromMeshParams& params) {
     throw Error("tolerance = " + shortest_text(params.tolerance) + ": must be in [1e-10, 0.01]");
 }
 
+// The rest position of lattice sample n as LatticeDeformer::rest computes it, so that u = 0
+// leaves it exact.
+Eigen::Vector3d rest_position(const Eigen::Vector3d& h, const Eigen::Vector3d& spacing,
+                              const Grid& grid, long n) {
+  return -h + spacing.cwiseProduct(grid.node_of(n).cast<double>());
+}
+
+// A fitted lattice: every sample at rest + u.
+struct LatticeFit {
+  Grid grid;
+  Eigen::Vector3d spacing;
+  std::vector<Eigen::Vector3d> positions;
+  int iterations = 0;
+  double relative_residual = 0;
+  std::size_t bytes = 0;  // the estimate of the solver's and the deformer's memory, the larger
+};
+
+// The fit of u to the displacements d_i at the sources s_i (in the box [-h, h]) on the lattice of
+// params.resolution, u = 0 on params.pinned (the header's E(u)).
+LatticeFit fit_lattice(const Eigen::Vector3d& h, const std::vector<Eigen::Vector3d>& sources,
+                       const std::vector<Eigen::Vector3d>& displacements,
+                       const FromMeshParams& params, Interrupter* interrupter) {
+  const double diagonal = 2.0 * h.norm();
+  const long n_pairs = static_cast<long>(sources.size());
+  const Eigen::Vector3i cells = lattice_cells(h, params.resolution);
+  const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
+
+  Problem problem;
+  problem.h = h;
+  problem.params = params;
+  problem.sources = &sources;
+  problem.displacements = &displacements;
+  problem.grids = hierarchy(cells, spacing);
+  const Grid& grid = problem.grids[0];
+
+  // The pairs' affine fit, by least squares; the least gradient along the directions the
+  // sources do not spread in (one pair: none; pairs on a plane: across it).
+  problem.mean_s.setZero();
+  problem.mean_d.setZero();
+  for (size_t i = 0; i < sources.size(); ++i) {
+    problem.mean_s += sources[i];
+    problem.mean_d += displacements[i];
+  }
+  problem.mean_s /= static_cast<double>(n_pairs);
+  problem.mean_d /= static_cast<double>(n_pairs);
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero(), cross = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < sources.size(); ++i) {
+    const Eigen::Vector3d s = sources[i] - problem.mean_s;
+    scatter += s * s.transpose();
+    cross += s * (displacements[i] - problem.mean_d).transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(scatter);
+  const double l2 = diagonal * diagonal;
+  Eigen::Vector3d inverse_spread = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (spread.eigenvalues()[k] > 1e-14 * l2 * static_cast<double>(n_pairs))
+      inverse_spread[k] = 1.0 / spread.eigenvalues()[k];
+  problem.gradient = (spread.eigenvectors() * inverse_spread.asDiagonal() *
+                      spread.eigenvectors().transpose() * cross)
+                         .transpose();
+  // Sources that barely spread along some direction leave affine fields that only eps holds,
+  // some ten orders of magnitude below the rest of A: rounding in float, magnified that much by
+  // the coarsest solve, breaks the cycle (a few pairs, or a flat part, did). The cycle then runs
+  // in double, at about 1.8 times the cost.
+  const bool flat = spread.eigenvalues()[0] < kFlatSpread * static_cast<double>(grid.count) * l2;
+  const std::size_t real = flat ? sizeof(double) : sizeof(float);
+
+  // Memory, estimated before anything large is allocated: the solver's (then again once the
+  // data rows are counted) and the deformer's at rest (again with the fitted positions).
+  // The sources and displacements.
+  const std::size_t shared = sources.size() * 2 * sizeof(Eigen::Vector3d);
+  std::size_t deformer_bytes = shared + lattice_bytes_at_rest(cells, spacing, h);
+  auto check_memory = [&](std::size_t bytes, const char* advice) {
+    if (bytes > kFromMeshMaxBytes)
+      throw Error("resolution = " + std::to_string(params.resolution) + ": the fit needs about " +
+                  mib_text(bytes) + " for its lattice of " + std::to_string(cells.x()) + " x " +
+                  std::to_string(cells.y()) + " x " + std::to_string(cells.z()) +
+                  " cells, more than the " + mib_text(kFromMeshMaxBytes) + " allowed: " + advice);
+  };
+  const char* const lower = "lower the resolution";
+  check_memory(std::max(solver_bytes(problem, real), deformer_bytes), lower);
+  for (const Grid& g : problem.grids) {
+    std::vector<std::uint8_t> mark(static_cast<size_t>(g.count), 0);
+    for (const Eigen::Vector3d& s : sources) {
+      Eigen::Vector3i cell;
+      Eigen::Vector3d f;
+      g.locate(h, s, cell, f);
+      for (int c = 0; c < 8; ++c) mark[g.index(cell + corner_offset(c))] = 1;
+    }
+    long touched = 0;
+    for (std::uint8_t m : mark) touched += m;
+    problem.touched.push_back(touched);
+    poll(interrupter, kStage, 0.0);
+  }
+  const std::size_t fit_bytes = solver_bytes(problem, real);
+  check_memory(std::max(fit_bytes, deformer_bytes), lower);
+
+  // The fit.
+  int iterations = 0;
+  double relative = 0.0;
+  std::vector<double> u;
+  {
+    auto run = [&](auto solver) {
+      auto result = solver.solve();
+      iterations = result.iterations;
+      relative = result.relative_residual;
+      u = std::move(result.u);
+    };
+    if (flat)
+      run(Solver<double>(problem, interrupter));
+    else
+      run(Solver<float>(problem, interrupter));
+  }
+  for (double v : u)
+    if (!std::isfinite(v))
+      throw Error("smoothness = " + shortest_text(params.smoothness) +
+                  ": the fit's solution is not finite: raise it");
+
+  // Every lattice sample at rest + u.
+  LatticeFit out;
+  out.grid = grid;
+  out.spacing = spacing;
+  out.positions.resize(static_cast<size_t>(grid.count));
+  for (long n = 0; n < grid.count; ++n)
+    out.positions[n] =
+        rest_position(h, spacing, grid, n) + Eigen::Vector3d(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
+  out.iterations = iterations;
+  out.relative_residual = relative;
+  out.bytes = std::max(fit_bytes, deformer_bytes);
+  return out;
+}
+
+// The trilinear interpolation of a fitted lattice at p (box [-h, h]; beyond it, the outer cells'
+// extension).
+Eigen::Vector3d lattice_at(const LatticeFit& lattice, const Eigen::Vector3d& h,
+                           const Eigen::Vector3d& p) {
+  Eigen::Vector3i cell;
+  Eigen::Vector3d f;
+  lattice.grid.locate(h, p, cell, f);
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();
+  for (int c = 0; c < 8; ++c)
+    q += corner_weight(f, c) * lattice.positions[lattice.grid.index(cell + corner_offset(c))];
+  return q;
+}
+
+// The fit of the pairs (sources in the box, their displacements). Where the pairs turn more than
+// kTurnThreshold, they follow turn_paths' poses (deformers/turn_paths.h) in steps of at most
+// kTurnStep: each step's pairs, and the pinned faces' samples (which turn whole turns and come
+// back), are fitted with no pinned face on a lattice of cells of the same size over a box that
+// holds every pose; the steps are composed at the box lattice's samples (the pinned faces' then
+// set at rest), and what the composition leaves of the pairs' displacements is fitted on the
+// box's lattice, with u = 0 on the pinned faces, and added.
+LatticeFit fit_pairs(const Eigen::Vector3d& h, const std::vector<Eigen::Vector3d>& sources,
+                     const std::vector<Eigen::Vector3d>& displacements,
+                     const FromMeshParams& params, Interrupter* interrupter, TurnPaths* turns) {
+  const Eigen::Vector3i cells = lattice_cells(h, params.resolution);
+  const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
+  std::vector<Eigen::Vector3d> targets(sources.size());
+  for (size_t i = 0; i < sources.size(); ++i) targets[i] = sources[i] + displacements[i];
+  // The pinned faces' samples, which the paths hold at rest at both ends.
+  const Grid grid = hierarchy(cells, spacing)[0];
+  std::vector<char> on_pin(static_cast<size_t>(grid.count), 0);
+  std::vector<Eigen::Vector3d> held;
+  for (long n = 0; n < grid.count; ++n) {
+    for (int f = 0; f < 6; ++f)
+      if (params.pinned[static_cast<size_t>(f)] &&
+          grid.node_of(n)[f / 2] == ((f % 2) ? cells[f / 2] : 0))
+        on_pin[n] = 1;
+    if (on_pin[n]) held.push_back(rest_position(h, spacing, grid, n));
+  }
+  *turns = turn_paths(sources, targets, held, h, params.pinned, 0.5 * spacing.minCoeff(), kTurnStep,
+                      kTurnThreshold, interrupter);
+  if (turns->steps <= 1) return fit_lattice(h, sources, displacements, params, interrupter);
+
+  // The box of the steps: every pose within it.
+  Eigen::Vector3d reach = h;
+  for (const auto& pose : turns->poses)
+    for (const Eigen::Vector3d& p : pose) reach = reach.cwiseMax(p.cwiseAbs());
+  reach += spacing;
+  FromMeshParams step = params;
+  step.pinned = {};
+  step.resolution =
+      std::clamp(static_cast<int>(std::ceil(params.resolution * reach.maxCoeff() / h.maxCoeff())),
+                 kFromMeshMinResolution, kFromMeshMaxResolution);
+  // The steps, composed at the box lattice's samples.
+  std::vector<Eigen::Vector3d> composed(static_cast<size_t>(grid.count));
+  for (long n = 0; n < grid.count; ++n) composed[n] = rest_position(h, spacing, grid, n);
+  int iterations = 0;
+  std::size_t bytes = 0;
+  for (int k = 1; k <= turns->steps; ++k) {
+    const auto& from = turns->poses[static_cast<size_t>(k - 1)];
+    const auto& to = turns->poses[static_cast<size_t>(k)];
+    std::vector<Eigen::Vector3d> d(from.size());
+    for (size_t i = 0; i < from.size(); ++i) d[i] = to[i] - from[i];
+    const LatticeFit fitted = fit_lattice(reach, from, d, step, interrupter);
+    iterations += fitted.iterations;
+    bytes = std::max(bytes, fitted.bytes);
+    parallel_for(
+        grid.count, [&](long n) { composed[n] = lattice_at(fitted, reach, composed[n]); },
+        interrupter, kStage);
+  }
+  for (long n = 0; n < grid.count; ++n)
+    if (on_pin[n]) composed[n] = rest_position(h, spacing, grid, n);
+
+  // What the composition leaves, fitted on the box's lattice and added.
+  LatticeFit base;
+  base.grid = grid;
+  base.spacing = spacing;
+  base.positions = std::move(composed);
+  std::vector<Eigen::Vector3d> left(sources.size());
+  parallel_for(
+      static_cast<long>(sources.size()),
+      [&](long i) { left[i] = targets[i] - lattice_at(base, h, sources[i]); }, interrupter, kStage);
+  LatticeFit out = fit_lattice(h, sources, left, params, interrupter);
+  for (long n = 0; n < grid.count; ++n)
+    out.positions[n] += base.positions[n] - rest_position(h, spacing, grid, n);
+  out.iterations += iterations;
+  out.bytes = std::max(out.bytes, bytes);
+  return out;
+}
+
 }  // namespace
 
 std::unique_ptr<Deformer> from_mesh_fitted(const Eigen::Vector3d& half_extents,
@@ -970,120 +1196,28 @@ std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
                   vector_text(-h) + " to " + vector_text(h) + " (box frame)");
   }
   const long n_pairs = static_cast<long>(pairs.size());
-
-  const Eigen::Vector3i cells = lattice_cells(h, params.resolution);
-  const Eigen::Vector3d spacing = (2.0 * h).cwiseQuotient(cells.cast<double>());
-
   // The sources (moved onto the box within the slack) and their displacements.
   std::vector<Eigen::Vector3d> sources(pairs.size()), displacements(pairs.size());
   for (size_t i = 0; i < pairs.size(); ++i) {
     sources[i] = pairs[i].source.cwiseMax(-h).cwiseMin(h);
     displacements[i] = pairs[i].target - pairs[i].source;
   }
-  Problem problem;
-  problem.h = h;
-  problem.params = params;
-  problem.sources = &sources;
-  problem.displacements = &displacements;
-  problem.grids = hierarchy(cells, spacing);
-  const Grid& grid = problem.grids[0];
-
-  // The pairs' affine fit, by least squares; the least gradient along the directions the
-  // sources do not spread in (one pair: none; pairs on a plane: across it).
-  problem.mean_s.setZero();
-  problem.mean_d.setZero();
-  for (size_t i = 0; i < sources.size(); ++i) {
-    problem.mean_s += sources[i];
-    problem.mean_d += displacements[i];
-  }
-  problem.mean_s /= static_cast<double>(n_pairs);
-  problem.mean_d /= static_cast<double>(n_pairs);
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero(), cross = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < sources.size(); ++i) {
-    const Eigen::Vector3d s = sources[i] - problem.mean_s;
-    scatter += s * s.transpose();
-    cross += s * (displacements[i] - problem.mean_d).transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(scatter);
-  const double l2 = diagonal * diagonal;
-  Eigen::Vector3d inverse_spread = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 3; ++k)
-    if (spread.eigenvalues()[k] > 1e-14 * l2 * static_cast<double>(n_pairs))
-      inverse_spread[k] = 1.0 / spread.eigenvalues()[k];
-  problem.gradient = (spread.eigenvectors() * inverse_spread.asDiagonal() *
-                      spread.eigenvectors().transpose() * cross)
-                         .transpose();
-  // Sources that barely spread along some direction leave affine fields that only eps holds,
-  // some ten orders of magnitude below the rest of A: rounding in float, magnified that much by
-  // the coarsest solve, breaks the cycle (a few pairs, or a flat part, did). The cycle then runs
-  // in double, at about 1.8 times the cost.
-  const bool flat = spread.eigenvalues()[0] < kFlatSpread * static_cast<double>(grid.count) * l2;
-  const std::size_t real = flat ? sizeof(double) : sizeof(float);
-
-  // Memory, estimated before anything large is allocated: the solver's (then again once the
-  // data rows are counted) and the deformer's at rest (again with the fitted positions).
-  const std::size_t shared = pairs.size() * 2 * sizeof(Eigen::Vector3d);  // sources, displacements
-  std::size_t deformer_bytes = shared + lattice_bytes_at_rest(cells, spacing, h);
-  auto check_memory = [&](std::size_t bytes, const char* advice) {
-    if (bytes > kFromMeshMaxBytes)
-      throw Error("resolution = " + std::to_string(params.resolution) + ": the fit needs about " +
-                  mib_text(bytes) + " for its lattice of " + std::to_string(cells.x()) + " x " +
-                  std::to_string(cells.y()) + " x " + std::to_string(cells.z()) +
-                  " cells, more than the " + mib_text(kFromMeshMaxBytes) + " allowed: " + advice);
-  };
-  const char* const lower = "lower the resolution";
-  check_memory(std::max(solver_bytes(problem, real), deformer_bytes), lower);
-  for (const Grid& g : problem.grids) {
-    std::vector<std::uint8_t> mark(static_cast<size_t>(g.count), 0);
-    for (const Eigen::Vector3d& s : sources) {
-      Eigen::Vector3i cell;
-      Eigen::Vector3d f;
-      g.locate(h, s, cell, f);
-      for (int c = 0; c < 8; ++c) mark[g.index(cell + corner_offset(c))] = 1;
-    }
-    long touched = 0;
-    for (std::uint8_t m : mark) touched += m;
-    problem.touched.push_back(touched);
-    poll(interrupter, kStage, 0.0);
-  }
-  const std::size_t fit_bytes = solver_bytes(problem, real);
-  check_memory(std::max(fit_bytes, deformer_bytes), lower);
-
-  // The fit.
-  int iterations = 0;
-  double relative = 0.0;
-  std::vector<double> u;
-  {
-    auto run = [&](auto solver) {
-      auto result = solver.solve();
-      iterations = result.iterations;
-      relative = result.relative_residual;
-      u = std::move(result.u);
-    };
-    if (flat)
-      run(Solver<double>(problem, interrupter));
-    else
-      run(Solver<float>(problem, interrupter));
-  }
-  for (double v : u)
-    if (!std::isfinite(v))
-      throw Error("smoothness = " + shortest_text(params.smoothness) +
-                  ": the fit's solution is not finite: raise it");
-
-  // The deformation: every lattice sample a node, at rest + u.
+  TurnPaths turns;
+  LatticeFit fitted = fit_pairs(h, sources, displacements, params, interrupter, &turns);
+  const Grid& grid = fitted.grid;
+  const Eigen::Vector3i cells = grid.cells;
+  std::vector<Eigen::Vector3d>& positions = fitted.positions;
   std::vector<int> node_of_sample(static_cast<size_t>(grid.count));
-  std::vector<Eigen::Vector3d> positions(static_cast<size_t>(grid.count));
-  for (long n = 0; n < grid.count; ++n) {
-    node_of_sample[n] = static_cast<int>(n);
-    // The rest position as LatticeDeformer::rest computes it, so that u = 0 leaves it exact.
-    positions[n] = (-h + spacing.cwiseProduct(grid.node_of(n).cast<double>())) +
-                   Eigen::Vector3d(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
-  }
-  std::vector<double>().swap(u);
-  deformer_bytes = shared + lattice_bytes_fitted(grid, positions, interrupter);
-  check_memory(deformer_bytes,
-               "the fitted cells spread far (targets far from their sources, or conflicting): "
-               "lower the resolution or raise the smoothness");
+  for (long n = 0; n < grid.count; ++n) node_of_sample[n] = static_cast<int>(n);
+  const std::size_t shared = pairs.size() * 2 * sizeof(Eigen::Vector3d);
+  const std::size_t deformer_bytes = shared + lattice_bytes_fitted(grid, positions, interrupter);
+  if (deformer_bytes > kFromMeshMaxBytes)
+    throw Error("resolution = " + std::to_string(params.resolution) + ": the fit needs about " +
+                mib_text(deformer_bytes) + " for its lattice of " + std::to_string(cells.x()) +
+                " x " + std::to_string(cells.y()) + " x " + std::to_string(cells.z()) +
+                " cells, more than the " + mib_text(kFromMeshMaxBytes) +
+                " allowed: the fitted cells spread far (targets far from their sources, or "
+                "conflicting): lower the resolution or raise the smoothness");
   std::unique_ptr<Deformer> lattice =
       make_lattice_deformer(SimModel::grid, h, cells, node_of_sample, positions, params.pinned);
   std::vector<int>().swap(node_of_sample);
@@ -1115,9 +1249,11 @@ std::unique_ptr<Deformer> make_from_mesh(const Eigen::Vector3d& half_extents,
     double total = 0.0;
     for (double s : squares) total += s;
     fit->rms_error = std::sqrt(total / static_cast<double>(n_pairs));
-    fit->iterations = iterations;
-    fit->relative_residual = relative;
-    fit->bytes = std::max(fit_bytes, deformer_bytes);
+    fit->iterations = fitted.iterations;
+    fit->largest_turn_deg = turns.largest_angle * (180.0 / 3.14159265358979323846);
+    fit->steps = turns.steps;
+    fit->relative_residual = fitted.relative_residual;
+    fit->bytes = std::max(fitted.bytes, deformer_bytes);
     fit->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   return deformer;

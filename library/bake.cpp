@@ -757,11 +757,12 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
     }
     simulation_key = "\nfrom mesh" + job.mesh->hash + " target";
     for (const std::string& file : files) simulation_key += " " + target_hash(file);
-    const std::string fit_key = (Key() << "from mesh fit\nmesh" << job.mesh->hash << "\n"
-                                       << box_key(spec.box) << "\n"
-                                       << simulation_key << "\n"
-                                       << deformer_key(d))
-                                    .str();
+    const std::string fit_key =
+        (Key() << "from mesh fit, turns in steps\nmesh" << job.mesh->hash << "\n"
+               << box_key(spec.box) << "\n"
+               << simulation_key << "\n"
+               << deformer_key(d))
+            .str();
     const double cell = 2.0 * spec.box.half_extents.maxCoeff() / d.fit_resolution;
     const double bound = 2.0 * std::sqrt(3.0) * cell;
     const TriangleBvh bvh(mesh);

@@ -4,11 +4,12 @@
 // image thresholds of tests/render_test.cpp (IoU >= 0.98, at most 2 % of the common pixels off by
 // more than 1 % of the deformed mesh's diagonal):
 //   CopiesOfExactDeformations  the mesh's vertices in the box moved by raywarp's own exact twist
-//                              or bend, written out as a PLY, the faces the map holds pinned; the
-//                              render at 512 x 512 against the analytic
-//                              deformation's ground truth (the mesh subdivided to a quarter voxel
-//                              and mapped by the exact F), on the bunny (3,674 triangles) and the
-//                              armadillo (52,000).
+//                              (90 to 720 degrees) or bend (60 to 180), written out as a PLY, the
+//                              faces the map holds pinned; the render at 512 x 512 against the
+//                              analytic deformation's ground truth (the mesh subdivided to a
+//                              quarter voxel and mapped by the exact F), on the bunny (3,674
+//                              triangles) and the armadillo (52,000), within the zoo's marks:
+//                              IoU >= 0.99, at most 1 % of the pixels over.
 //   GltfMorphTargets           a glTF written here with two morph targets (the twist of the
 //                              head and the bend of the whole bunny, as displacements); each
 //                              target rendered against the target mesh itself, rasterised.
@@ -68,7 +69,7 @@ json held_faces(const Deformer& F) {
 }
 
 void expect_thresholds(const std::string& name, const ImageComparison& c, const Image& gl,
-                       const Image& truth) {
+                       const Image& truth, double min_iou = 0.98, double max_over = 0.02) {
   std::printf(
       "[figures] from_mesh %s: IoU %.4f, over 1%% of diag %.2f%%, mean depth err %.4g, max "
       "%.4g\n",
@@ -76,8 +77,8 @@ void expect_thresholds(const std::string& name, const ImageComparison& c, const 
   fs::create_directories("from_mesh_render_test_images");
   write_png("from_mesh_render_test_images/" + name + "_gl.png", gl);
   write_png("from_mesh_render_test_images/" + name + "_truth.png", truth);
-  EXPECT_GE(c.iou, 0.98) << name;
-  EXPECT_LE(c.fraction_over, 0.02) << name;
+  EXPECT_GE(c.iou, min_iou) << name;
+  EXPECT_LE(c.fraction_over, max_over) << name;
 }
 
 Image render(const Scene& scene, const Camera& camera, PreparedScene& prepared, int size = kSize) {
@@ -144,16 +145,18 @@ TEST_P(CopiesOfExactDeformations, RenderWithinTheThresholdsOfTheAnalyticMap) {
   const double diagonal = mesh_bounds(truth_mesh).diagonal().norm();
   const std::string name = fs::path(GetParam().scene).stem().string() + "_" +
                            std::to_string(static_cast<int>(GetParam().angle_deg));
-  expect_thresholds(name, compare_images(image, truth, 0.01 * diagonal), image, truth);
+  expect_thresholds(name, compare_images(image, truth, 0.01 * diagonal), image, truth, 0.99, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     FromMesh, CopiesOfExactDeformations,
-    // The bunny's head twisted by 90 degrees, not the example's 360: a full turn folds the fitted
-    // field between the sheets of the surface (docs/from_mesh.md).
+    // Turns fitted in one go (90, 60 degrees) and in steps (120 degrees and more, full turns;
+    // docs/from_mesh.md "Full turns").
     ::testing::Values(Copy{"bunny_head_twist.json", 90}, Copy{"bunny_bend.json", 90},
                       Copy{"zoo/armadillo_hand_twist.json", 120},
-                      Copy{"zoo/armadillo_hand_bend.json", 60}),
+                      Copy{"zoo/armadillo_hand_bend.json", 60}, Copy{"bunny_head_twist.json", 360},
+                      Copy{"bunny_head_twist.json", 720}, Copy{"bunny_bend.json", 180},
+                      Copy{"zoo/armadillo_hand_twist.json", 360}),
     [](const auto& info) {
       std::string s = fs::path(info.param.scene).stem().string() + "_" +
                       std::to_string(static_cast<int>(info.param.angle_deg));

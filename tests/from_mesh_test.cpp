@@ -72,6 +72,8 @@ std::vector<Exact> exact_maps() {
   maps.push_back({"twist 90 about y", make_twist(kHalf, Axis::Y, 90.0)});
   maps.push_back({"twist 360 about y", make_twist(kHalf, Axis::Y, 360.0)});
   maps.push_back({"bend 90 about z", make_bend(kHalf, Axis::Z, 90.0)});
+  maps.push_back({"twist 720 about y", make_twist(kHalf, Axis::Y, 720.0)});
+  maps.push_back({"bend 180 about z", make_bend(kHalf, Axis::Z, 180.0)});
   return maps;
 }
 
@@ -109,27 +111,74 @@ TEST(FromMeshFit, MeetsExactDeformationsOfTheBunnysHead) {
         "[figures] from mesh, %s: %ld pairs, %d x %d x %d cells; |F(s) - t| max %.4f %%, rms "
         "%.4f %% of the diagonal; inside the solid (%zu points) max %.3f %%, rms %.3f %%; "
         "%d iterations (residual %.1e), %.3f s, %.1f MiB; folded: %.2f %% of the box, %d points "
-        "inside\n",
+        "inside; turns %.0f degrees, %d steps\n",
         e.name.c_str(), fit.pairs, fit.cells.x(), fit.cells.y(), fit.cells.z(),
         percent(fit.max_error), percent(fit.rms_error), h.interior.size(), inside.max, inside.rms,
         fit.iterations, fit.relative_residual, fit.seconds, fit.bytes / 1048576.0,
-        100.0 * folds.folded_volume / folds.box_volume, folded_inside);
+        100.0 * folds.folded_volume / folds.box_volume, folded_inside, fit.largest_turn_deg,
+        fit.steps);
     EXPECT_EQ(fit.pairs, static_cast<long>(h.vertices.size()));
     EXPECT_EQ(fit.cells, Eigen::Vector3i(48, 27, 37));
     EXPECT_LE(fit.relative_residual, 1e-6);
-    // Measured 0.029 %, 0.18 %, 0.012 %.
+    // Measured 0.029 %, 0.11 %, 0.012 %, 0.35 %, 0.061 %.
     EXPECT_LT(percent(fit.max_error), 0.5) << e.name;
-    if (e.name.find("360") == std::string::npos) {
-      // Measured 1.7 % and 1.4 % at most inside the solid (the extension's error: the twist and
-      // the bend are not thin plates), and no fold.
-      EXPECT_LT(inside.max, 4.0) << e.name;
-      EXPECT_EQ(folds.folded_volume, 0.0) << e.name;
-      EXPECT_EQ(folded_inside, 0) << e.name;
-    } else {
-      // A full turn: 8.7 % at most inside; folds between the sheets (see the header's limits).
-      EXPECT_LT(inside.max, 20.0);
-    }
+    // Measured at most 1.7 %, 1.6 %, 1.4 %, 2.4 %, 2.4 % inside the solid (the extension's error:
+    // the twist and the bend are not thin plates), and no fold inside it.
+    EXPECT_LT(inside.max, 4.0) << e.name;
+    EXPECT_EQ(folded_inside, 0) << e.name;
+    // The turns past 100 degrees are fitted in steps (the 90-degree maps turn their pairs by 86
+    // and 57 degrees about the line they turn about, the others by 114 to 690 degrees).
+    const bool far = e.name.find("360") != std::string::npos ||
+                     e.name.find("720") != std::string::npos ||
+                     e.name.find("180") != std::string::npos;
+    EXPECT_EQ(fit.steps > 1, far) << e.name;
+    // No fold in the box, but for 0.61 % of it in the empty space around the 720-degree twist.
+    EXPECT_LE(folds.folded_volume, (far ? 0.01 : 0.0) * folds.box_volume) << e.name;
   }
+}
+
+// A light full turn (it also runs under the sanitizers): 800 points on a cylinder about y,
+// twisted by 360 degrees, both ends pinned, on a 12-cell lattice: fitted in steps, met on the
+// pairs, no fold inside the cylinder, and its inverse round trips there.
+TEST(FromMeshTurns, FullTurnOfACylinderIsFittedInSteps) {
+  const Eigen::Vector3d half(1.0, 1.0, 1.0);
+  const auto twist = make_twist(half, Axis::Y, 360.0);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> sources, inside;
+  for (int i = 0; i < 800; ++i) {
+    const double a = 3.14159265358979 * u(rng);
+    sources.emplace_back(0.6 * std::cos(a), u(rng), 0.6 * std::sin(a));
+  }
+  while (inside.size() < 200) {
+    const Eigen::Vector3d p(u(rng), 0.9 * u(rng), u(rng));
+    if (std::hypot(p.x(), p.z()) < 0.55) inside.push_back(p);
+  }
+  FromMeshParams params;
+  params.resolution = 12;
+  params.pinned = twist->identity_faces();
+  FromMeshFit fit;
+  const auto f = make_from_mesh(half, pairs_of(sources, *twist), params, &fit);
+  int folded = 0;
+  double round_trip = 0.0, error_inside = 0.0;
+  for (const Eigen::Vector3d& p : inside) {
+    folded += f->jacobian(p).determinant() <= 0.0;
+    round_trip = std::max(round_trip, (f->inverse(f->forward(p)) - p).norm());
+    error_inside = std::max(error_inside, (f->forward(p) - twist->forward(p)).norm());
+  }
+  const double diagonal = 2.0 * half.norm();
+  std::printf(
+      "[figures] from mesh, a cylinder twisted 360 degrees (800 pairs, resolution 12): turns %.0f "
+      "degrees in %d steps; |F(s) - t| max %.3f %% of the diagonal; inside max %.3f %%; %d of 200 "
+      "points inside folded; round trip %.2e\n",
+      fit.largest_turn_deg, fit.steps, 100.0 * fit.max_error / diagonal,
+      100.0 * error_inside / diagonal, folded, round_trip);
+  EXPECT_GT(fit.largest_turn_deg, 300.0);
+  EXPECT_GT(fit.steps, 1);
+  EXPECT_LT(fit.max_error, 0.01 * diagonal);
+  EXPECT_LT(error_inside, 0.05 * diagonal);
+  EXPECT_EQ(folded, 0);
+  EXPECT_LT(round_trip, 1e-6 * diagonal);
 }
 
 TEST(FromMeshFit, ErrorInsideTheSolidAndOnThePairsAgainstResolution) {
@@ -196,7 +245,6 @@ TEST(FromMeshFit, InverseRoundTripsAwayFromFolds) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (const Exact& e : exact_maps()) {
     const auto f = make_from_mesh(kHalf, pairs_of(h.vertices, *e.map), FromMeshParams{});
-    const bool full_turn = e.name.find("360") != std::string::npos;
     double worst = 0.0, worst_image = 0.0;
     int checked = 0;
     for (int i = 0; i < 3000; ++i) {
@@ -205,7 +253,7 @@ TEST(FromMeshFit, InverseRoundTripsAwayFromFolds) {
       const Eigen::Vector3d back = f->inverse(q);
       // Where F folds somewhere, q may have another preimage: the inverse gives one of them.
       worst_image = std::max(worst_image, (f->forward(back) - q).norm());
-      if (full_turn || f->jacobian(p).determinant() < 0.1) continue;
+      if (f->jacobian(p).determinant() < 0.1) continue;
       worst = std::max(worst, (back - p).norm());
       ++checked;
     }
@@ -215,9 +263,7 @@ TEST(FromMeshFit, InverseRoundTripsAwayFromFolds) {
         e.name.c_str(), worst / kDiagonal, checked, worst_image / kDiagonal);
     EXPECT_LT(worst, 1e-6 * kDiagonal) << e.name;
     EXPECT_LT(worst_image, 1e-6 * kDiagonal) << e.name;
-    if (!full_turn) {
-      EXPECT_GT(checked, 2900) << e.name;
-    }
+    EXPECT_GT(checked, 2700) << e.name;
   }
 }
 
