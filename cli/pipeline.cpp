@@ -96,8 +96,11 @@ void print_report(std::ostream& log, const std::string& tag, const BakedBox& box
     log << ": " << f.pairs << " of the mesh's " << f.mesh_vertices << " vertices in the box ("
         << f.file_vertices << " in the file), largest move " << fmt("%.4g", f.largest_move)
         << "; fit |F(source) - target| max " << fmt("%.3g", f.fit_max_error) << ", rms "
-        << fmt("%.3g", f.fit_rms_error) << " units"
-        << (from_cache(r.stage(Stage::Fit)) ? ", fit from the cache" : "") << " ("
+        << fmt("%.3g", f.fit_rms_error) << " units";
+    if (f.turn_steps > 1)
+      log << "; the pairs turn up to " << fmt("%.0f", f.largest_turn_deg)
+          << "° about one line: fitted in " << f.turn_steps << " steps";
+    log << (from_cache(r.stage(Stage::Fit)) ? ", fit from the cache" : "") << " ("
         << fmt("%.2f", f.seconds) << " s)\n";
   }
   const StageReport* def = r.stage(Stage::Deformation);

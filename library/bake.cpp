@@ -294,10 +294,12 @@ std::vector<char> save_fit(const FitRecord& f) {
     for (int i = 0; i < 3; ++i) w.number(p[i]);
   const FromMeshReport& r = f.report;
   for (long v : {r.pairs, r.file_vertices, r.mesh_vertices, r.torn, r.moved_outside,
-                 static_cast<long>(r.frames), static_cast<long>(f.cells.x()),
-                 static_cast<long>(f.cells.y()), static_cast<long>(f.cells.z())})
+                 static_cast<long>(r.frames), static_cast<long>(r.turn_steps),
+                 static_cast<long>(f.cells.x()), static_cast<long>(f.cells.y()),
+                 static_cast<long>(f.cells.z())})
     w.integer(v);
-  for (double v : {r.largest_move, r.fit_max_error, r.fit_rms_error, r.seconds, r.frame})
+  for (double v :
+       {r.largest_move, r.fit_max_error, r.fit_rms_error, r.seconds, r.frame, r.largest_turn_deg})
     w.number(v);
   return w.bytes();
 }
@@ -322,13 +324,17 @@ bool load_fit(const std::vector<char>& bytes, FitRecord& f) {
   m.torn = r.integer();
   m.moved_outside = r.integer();
   m.frames = static_cast<int>(r.integer());
+  const long steps = r.integer();
+  if (steps < 1 || steps > 1000000) return false;
+  m.turn_steps = static_cast<int>(steps);
   for (int a = 0; a < 3; ++a) out.cells[a] = static_cast<int>(r.integer());
   m.largest_move = r.number();
   m.fit_max_error = r.number();
   m.fit_rms_error = r.number();
   m.seconds = r.number();
   m.frame = r.number();
-  if (!r.ok() || !r.at_end() || m.pairs < 1) return false;
+  m.largest_turn_deg = r.number();
+  if (!r.ok() || !r.at_end() || m.pairs < 1 || !std::isfinite(m.largest_turn_deg)) return false;
   for (const Eigen::Vector3d& p : out.positions)
     if (!p.allFinite()) return false;
   f = std::move(out);
@@ -817,6 +823,8 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
           fm.moved_outside = pairs.moved_outside;
           fm.fit_max_error = figures.max_error;
           fm.fit_rms_error = figures.rms_error;
+          fm.largest_turn_deg = figures.largest_turn_deg;
+          fm.turn_steps = figures.steps;
           fm.seconds = seconds_since(started);
           r.cells = figures.cells;
           return r;

@@ -86,9 +86,11 @@ struct FromMeshReport {
   double largest_move = 0;                      // object units
   long moved_outside = 0;                       // vertices outside the box the target moves
   double fit_max_error = 0, fit_rms_error = 0;  // |F(source) - target| over the pairs
-  double seconds = 0;                           // reading the target and fitting
-  int frames = 0;    // of a sequence target (library/mesh_pairs.h); 0: not a sequence
-  double frame = 0;  // the frame read, when `frames` > 0
+  double largest_turn_deg = 0;  // the pairs' largest turn about the line they turn about
+  int turn_steps = 1;           // the fit's steps (1: in one go; deformers/from_mesh.h)
+  double seconds = 0;           // reading the target and fitting
+  int frames = 0;               // of a sequence target (library/mesh_pairs.h); 0: not a sequence
+  double frame = 0;             // the frame read, when `frames` > 0
 };
 
 // Something a user should know about a bake. `code` is stable (front ends may key on it); the

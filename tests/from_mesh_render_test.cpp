@@ -95,10 +95,11 @@ Image render(const Scene& scene, const Camera& camera, PreparedScene& prepared, 
   if (r.from_mesh)
     std::printf(
         "[figures] from_mesh pairs: %ld of %ld vertices, largest move %.4g, fit max %.3g rms %.3g, "
-        "%.2f s; folded %.3g of %.3g; D error %.3g voxels; %s\n",
+        "%.2f s (turns %.0f degrees, %d steps); folded %.3g of %.3g; D error %.3g voxels; %s\n",
         r.from_mesh->pairs, r.from_mesh->mesh_vertices, r.from_mesh->largest_move,
         r.from_mesh->fit_max_error, r.from_mesh->fit_rms_error, r.from_mesh->seconds,
-        r.folds.folded_volume, r.folds.box_volume, r.texture_error_voxels(), r.deformer.c_str());
+        r.from_mesh->largest_turn_deg, r.from_mesh->turn_steps, r.folds.folded_volume,
+        r.folds.box_volume, r.texture_error_voxels(), r.deformer.c_str());
   return image;
 }
 
