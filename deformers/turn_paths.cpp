@@ -47,48 +47,53 @@ std::vector<long> thin(const std::vector<Eigen::Vector3d>& sources, const Eigen:
   }
 }
 
-// The k nearest points of each query (itself excluded when the queries are the points), by rings of
-// cubes of side `cell` (at most one point per cube after thinning).
+// The k nearest of each point (itself excluded): by rings of cubes of side `cell` (at most one
+// point per cube after thinning) out to kRings cubes, and for a point with fewer than k within
+// that reach, over all the points.
 std::vector<std::vector<int>> nearest(const std::vector<Eigen::Vector3d>& points,
-                                      const std::vector<Eigen::Vector3d>& queries, bool same,
                                       const Eigen::Vector3d& h, double cell, int k,
                                       Interrupter* interrupter) {
+  constexpr int kRings = 4;
   const Cubes cubes{-h, cell};
   std::unordered_map<std::int64_t, std::vector<int>> buckets;
   for (size_t i = 0; i < points.size(); ++i)
     buckets[Cubes::key(cubes.of(points[i]))].push_back(static_cast<int>(i));
-  const int reach = static_cast<int>(std::ceil(2.0 * h.maxCoeff() / cell)) + 2;
-  const int want = std::min(k, static_cast<int>(points.size()) - (same ? 1 : 0));
-  std::vector<std::vector<int>> out(queries.size());
+  const int want = std::min(k, static_cast<int>(points.size()) - 1);
+  std::vector<std::vector<int>> out(points.size());
   parallel_for(
-      static_cast<long>(queries.size()),
+      static_cast<long>(points.size()),
       [&](long i) {
-        const Eigen::Vector3i c = cubes.of(queries[i]);
         std::vector<std::pair<double, int>> best;  // a max-heap on distance
-        for (int r = 0; r <= reach; ++r) {
+        auto offer = [&](int j) {
+          if (j == i) return;
+          const double d = (points[j] - points[i]).squaredNorm();
+          if (static_cast<int>(best.size()) < want) {
+            best.emplace_back(d, j);
+            std::push_heap(best.begin(), best.end());
+          } else if (d < best.front().first) {
+            std::pop_heap(best.begin(), best.end());
+            best.back() = {d, j};
+            std::push_heap(best.begin(), best.end());
+          }
+        };
+        const Eigen::Vector3i c = cubes.of(points[i]);
+        bool found = false;
+        for (int r = 0; r <= kRings && !found; ++r) {
           for (int dz = -r; dz <= r; ++dz)
             for (int dy = -r; dy <= r; ++dy)
               for (int dx = -r; dx <= r; ++dx) {
                 if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != r) continue;
                 const auto it = buckets.find(Cubes::key(c + Eigen::Vector3i(dx, dy, dz)));
-                if (it == buckets.end()) continue;
-                for (int j : it->second) {
-                  if (same && j == i) continue;
-                  const double d = (points[j] - queries[i]).squaredNorm();
-                  if (static_cast<int>(best.size()) < want) {
-                    best.emplace_back(d, j);
-                    std::push_heap(best.begin(), best.end());
-                  } else if (d < best.front().first) {
-                    std::pop_heap(best.begin(), best.end());
-                    best.back() = {d, j};
-                    std::push_heap(best.begin(), best.end());
-                  }
-                }
+                if (it != buckets.end())
+                  for (int j : it->second) offer(j);
               }
           // Points beyond ring r are at least r cubes away.
-          if (static_cast<int>(best.size()) == want &&
-              (want == 0 || best.front().first <= (r * cell) * (r * cell)))
-            break;
+          found = static_cast<int>(best.size()) == want &&
+                  (want == 0 || best.front().first <= (r * cell) * (r * cell));
+        }
+        if (!found) {
+          best.clear();
+          for (int j = 0; j < static_cast<int>(points.size()); ++j) offer(j);
         }
         for (const auto& b : best) out[i].push_back(b.second);
       },
@@ -167,8 +172,7 @@ TurnPaths turn_paths(const std::vector<Eigen::Vector3d>& sources,
   }
 
   // Joined to their neighbours, both ways.
-  const std::vector<std::vector<int>> near =
-      nearest(s, s, true, h, cell, kTurnNeighbours, interrupter);
+  const std::vector<std::vector<int>> near = nearest(s, h, cell, kTurnNeighbours, interrupter);
   std::vector<std::vector<int>> joined(m);
   for (long i = 0; i < m; ++i)
     for (int j : near[i]) {

@@ -181,6 +181,38 @@ TEST(FromMeshTurns, FullTurnOfACylinderIsFittedInSteps) {
   EXPECT_LT(round_trip, 1e-6 * diagonal);
 }
 
+// A few pairs far apart, turned rigidly by 150 degrees about y: the turn is found from 12 pairs
+// (too far apart for the rings of cubes, so their neighbours are found over all the pairs),
+// fitted in steps, and the rotation is met anywhere in the box (each step and their composition
+// are affine, which the thin plate holds exactly).
+TEST(FromMeshTurns, FewPairsTurnedRigidly) {
+  const Eigen::Vector3d half(1.0, 1.0, 1.0);
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(150.0 * 3.14159265358979 / 180.0, Eigen::Vector3d::UnitY())
+          .toRotationMatrix();
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<PointPair> pairs;
+  for (int i = 0; i < 12; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    pairs.push_back({p, turn * p});
+  }
+  FromMeshFit fit;
+  const auto f = make_from_mesh(half, pairs, FromMeshParams{}, &fit);
+  double worst = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    worst = std::max(worst, (f->forward(p) - turn * p).norm());
+  }
+  std::printf(
+      "[figures] from mesh, 12 pairs turned 150 degrees: turns %.1f degrees in %d steps; F - the "
+      "rotation at most %.2e in the box\n",
+      fit.largest_turn_deg, fit.steps, worst);
+  EXPECT_NEAR(fit.largest_turn_deg, 150.0, 1e-6);
+  EXPECT_GT(fit.steps, 1);
+  EXPECT_LT(worst, 1e-6);
+}
+
 TEST(FromMeshFit, ErrorInsideTheSolidAndOnThePairsAgainstResolution) {
   const Head& h = head();
   const auto twist = make_twist(kHalf, Axis::Y, 90.0);
