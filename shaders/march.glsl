@@ -99,6 +99,13 @@ const float kGolden = 0.618034;  // (sqrt(5) - 1) / 2
 const int kGrazeSteps = 6;       // golden-section steps for a grazing ray's peak
 const float kGrazeMargin = 0.1;  // of the three samples' span: how near the surface their
                                  // parabola's peak must come for the search
+// A grazing peak this near the surface (voxels of the distance grid) is the hit: bounded's rule
+// (RenderSettings::hit_epsilon_voxels). A depth cube's |f| is no distance: only a peak inside.
+#ifdef RAYWARP_DEPTH_CUBE
+const float kGrazeHitVoxels = 0.0;
+#else
+const float kGrazeHitVoxels = 0.02;
+#endif
 
 #ifdef RAYWARP_DEPTH_CUBE
 // The depth-map cube, as depth_cube_value (library/depth_cube.cpp): per face f_k = d_k - H_k, d_k
@@ -563,12 +570,14 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
 #endif
 #if !defined(RAYWARP_CUT_HOLLOW) && !defined(RAYWARP_SAMPLING_BOUNDED)
   // The first grazing bracket in front of the hit (or with no hit): golden-section search for
-  // the value's peak in it, and the hit there where the peak is inside.
+  // the value's peak in it, and the hit there where the peak is inside or within
+  // kGrazeHitVoxels of the surface.
   if (grazed && (!hit || graze_r <= lo)) {
     float l = graze_l, r = graze_r;
     float x1 = r - kGolden * (r - l), x2 = l + kGolden * (r - l);
     float f1 = value(sample_at(o + x1 * d, true)), f2 = value(sample_at(o + x2 * d, true));
-    for (int k = 0; k < kGrazeSteps && max(f1, f2) <= 0.0; ++k) {
+    float near_enough = -kGrazeHitVoxels * u_sdf_spacing;
+    for (int k = 0; k < kGrazeSteps && max(f1, f2) <= near_enough; ++k) {
       if (f1 > f2) {
         r = x2;
         x2 = x1;
@@ -583,10 +592,10 @@ bool raywarp_cast(vec3 o, vec3 d, float t0, float t1, out float t_hit, out vec3 
         f2 = value(sample_at(o + x2 * d, true));
       }
     }
-    if (max(f1, f2) > 0.0) {
+    if (max(f1, f2) > near_enough) {
       hit = true;
       lo = graze_l;
-      hi = f1 > 0.0 ? x1 : x2;
+      hi = f1 > near_enough ? x1 : x2;
     }
   }
 #endif

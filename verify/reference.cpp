@@ -107,6 +107,7 @@ constexpr double kSqrt3 = 1.7320508075688772;
 constexpr double kGolden = 0.6180339887498949;
 constexpr int kGrazeSteps = 6;
 constexpr double kGrazeMargin = 0.1;
+constexpr double kGrazeHitVoxels = 0.02;  // a grazing peak this near the surface is the hit
 
 // The peak of the parabola through (x0, y0), (x1, y1), (x2, y2), x0 < x1 < x2, y1 above both
 // others.
@@ -621,12 +622,15 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
     was_in_box = box.box.contains_local(pn);
   }
   // The first grazing bracket in front of the hit (or with no hit): golden-section search for
-  // the value's peak in it, and the hit there where the peak is inside.
+  // the value's peak in it, and the hit there where the peak is inside or within
+  // kGrazeHitVoxels of the surface.
   if (!hollow && !bounded && grazed && (!hit || graze_r <= lo)) {
     double l = graze_l, r = graze_r;
     double x1 = r - kGolden * (r - l), x2 = l + kGolden * (r - l);
     double f1 = value(box, at(x1, true)), f2 = value(box, at(x2, true));
-    for (int k = 0; k < kGrazeSteps && std::max(f1, f2) <= 0.0; ++k) {
+    // A depth cube's |f| is no distance: there only a peak inside is the hit.
+    const double near_enough = box.uses_depth_cube ? 0.0 : -kGrazeHitVoxels * implicit_spacing(box);
+    for (int k = 0; k < kGrazeSteps && std::max(f1, f2) <= near_enough; ++k) {
       if (f1 > f2) {
         r = x2;
         x2 = x1;
@@ -641,10 +645,10 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
         f2 = value(box, at(x2, true));
       }
     }
-    if (std::max(f1, f2) > 0.0) {
+    if (std::max(f1, f2) > near_enough) {
       hit = true;
       lo = graze_l;
-      hi = f1 > 0.0 ? x1 : x2;
+      hi = f1 > near_enough ? x1 : x2;
     }
   }
   if (!hit) return std::nullopt;

@@ -1,6 +1,6 @@
 // raywarp_sampler_table: what the default sampler misses, and what it costs, against the other
 // two on the continuous scenes of examples/zoo and the twists of examples/ (not a test).
-//   raywarp_sampler_table [--frames N] [--size PX] [--out FILE.md] [--context KIND]
+//   raywarp_sampler_table [--frames N] [--size PX] [--only TEXT] [--out FILE.md] [--context KIND]
 // Per scene, in one run: the scene baked and drawn three ways at SIZE x SIZE, its own settings
 // but for the sampling: the default (`threshold`), `linear` at 0.5 voxel (the paper's step) and
 // `bounded` (sphere tracing with Lipschitz bounds, which never steps over a surface). For each,
@@ -8,7 +8,9 @@
 // `bounded` covers, those the default and linear miss; of the pixels both `bounded` and the exact
 // ground truth cover (the mesh subdivided to a quarter voxel, split at the box, mapped by the
 // exact forward map, rasterised), those the default misses: the misses that are not `bounded`'s
-// hit rule (a sample within its epsilon of the surface counts as a hit there).
+// hit rule (a sample within its epsilon of the surface counts as a hit there). Also the frame of
+// the same mesh with no box (the raster pass alone): the part of every frame no sampler changes.
+// --only TEXT keeps the scenes whose name contains TEXT.
 // --out FILE.md replaces the text between <!-- sampler_table:begin --> and
 // <!-- sampler_table:end --> of FILE.md (or writes the file when it has none).
 #include <algorithm>
@@ -39,9 +41,10 @@ struct Row {
   long missed[2] = {0, 0};   // of bounded's: default, linear
   long missed_real = 0;      // of bounded's and the truth's: default
   double ms[3] = {0, 0, 0};  // default, linear, bounded
+  double raster_ms = 0;      // the mesh alone, no box
 };
 
-std::vector<fs::path> scenes() {
+std::vector<fs::path> scenes(const std::string& only) {
   const fs::path root = RAYWARP_SOURCE_DIR;
   std::vector<fs::path> out = {root / "examples/bunny_twist.json",
                                root / "examples/bunny_head_twist.json"};
@@ -53,6 +56,9 @@ std::vector<fs::path> scenes() {
   }
   std::sort(zoo.begin(), zoo.end());
   out.insert(out.end(), zoo.begin(), zoo.end());
+  std::erase_if(out, [&](const fs::path& f) {
+    return f.stem().string().find(only) == std::string::npos;
+  });
   return out;
 }
 
@@ -66,7 +72,7 @@ std::string percent(long part, long whole) {
 
 int main(int argc, char** argv) {
   int frames = 5, size = 512;
-  std::string out, context_kind = "osmesa";
+  std::string out, only, context_kind = "osmesa";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* what) -> std::string {
@@ -78,13 +84,15 @@ int main(int argc, char** argv) {
         frames = std::stoi(value("a number of frames"));
       } else if (a == "--size") {
         size = std::stoi(value("the image side in pixels"));
+      } else if (a == "--only") {
+        only = value("text in the scenes' names");
       } else if (a == "--out") {
         out = value("a Markdown file");
       } else if (a == "--context") {
         context_kind = value("auto, egl or osmesa");
       } else {
-        std::cerr << "usage: raywarp_sampler_table [--frames N] [--size PX] [--out FILE.md] "
-                     "[--context auto|egl|osmesa]\n";
+        std::cerr << "usage: raywarp_sampler_table [--frames N] [--size PX] [--only TEXT] "
+                     "[--out FILE.md] [--context auto|egl|osmesa]\n";
         return a == "--help" || a == "-h" ? 0 : 2;
       }
     } catch (const std::exception& e) {
@@ -101,7 +109,7 @@ int main(int argc, char** argv) {
   try {
     const auto context = gl::create_context(context_kind);
     context_description = context->description();
-    for (const fs::path& file : scenes()) {
+    for (const fs::path& file : scenes(only)) {
       Row r;
       r.scene = file.stem().string();
       Image images[3], truth;
@@ -129,6 +137,11 @@ int main(int argc, char** argv) {
         renderer.set_boxes(prepared.textures());
         r.ms[k] = frame_median(renderer, camera, size, size, scene.render, frames);
         images[k] = renderer.render(camera, size, size, scene.render);
+        if (k == 0) {
+          gl::Renderer mesh_only;
+          mesh_only.set_mesh(prepared.mesh());
+          r.raster_ms = frame_median(mesh_only, camera, size, size, scene.render, frames);
+        }
       }
       for (int y = 0; y < size; ++y)
         for (int x = 0; x < size; ++x) {
@@ -143,9 +156,10 @@ int main(int argc, char** argv) {
       rows.push_back(r);
       std::fprintf(stderr,
                    "%-22s default misses %s of bounded's, %s of bounded's and the truth's; "
-                   "frame ms %.1f / %.1f / %.1f (default / linear / bounded)\n",
+                   "frame ms %.1f / %.1f / %.1f (default / linear / bounded), no box %.1f\n",
                    r.scene.c_str(), percent(r.missed[0], r.bounded).c_str(),
-                   percent(r.missed_real, r.truth_and_bounded).c_str(), r.ms[0], r.ms[1], r.ms[2]);
+                   percent(r.missed_real, r.truth_and_bounded).c_str(), r.ms[0], r.ms[1], r.ms[2],
+                   r.raster_ms);
     }
   } catch (const std::exception& e) {
     std::cerr << "raywarp_sampler_table: " << e.what() << "\n";
@@ -159,16 +173,16 @@ int main(int argc, char** argv) {
            "sampling; every ratio is of frame times measured in the same run.\n\n"
         << "| scene | `bounded` covers | default misses of those | `linear` 0.5 misses of those "
            "| default misses of those the truth also covers | default ms | `linear` ms | "
-           "`bounded` ms | default / `linear` | `bounded` / `linear` |\n"
-        << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+           "`bounded` ms | no box ms | default / `linear` | `bounded` / `linear` |\n"
+        << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const Row& r : rows) {
     char line[768];
     std::snprintf(line, sizeof line,
-                  "| `%s` | %ld | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %.2f |\n",
+                  "| `%s` | %ld | %s | %s | %s | %.1f | %.1f | %.1f | %.1f | %.2f | %.2f |\n",
                   r.scene.c_str(), r.bounded, percent(r.missed[0], r.bounded).c_str(),
                   percent(r.missed[1], r.bounded).c_str(),
                   percent(r.missed_real, r.truth_and_bounded).c_str(), r.ms[0], r.ms[1], r.ms[2],
-                  r.ms[0] / r.ms[1], r.ms[2] / r.ms[1]);
+                  r.raster_ms, r.ms[0] / r.ms[1], r.ms[2] / r.ms[1]);
     table << line;
   }
   std::cout << table.str();
