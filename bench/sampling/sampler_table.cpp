@@ -56,9 +56,8 @@ std::vector<fs::path> scenes(const std::string& only) {
   }
   std::sort(zoo.begin(), zoo.end());
   out.insert(out.end(), zoo.begin(), zoo.end());
-  std::erase_if(out, [&](const fs::path& f) {
-    return f.stem().string().find(only) == std::string::npos;
-  });
+  std::erase_if(
+      out, [&](const fs::path& f) { return f.stem().string().find(only) == std::string::npos; });
   return out;
 }
 
