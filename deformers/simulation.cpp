@@ -314,24 +314,37 @@ class LatticeDeformer final : public Deformer {
                               q + Eigen::Vector3d::Constant(radius));
     if (!reach.intersects(bucket_bounds_)) return false;
     const Eigen::Vector3i lo = bucket_of(reach.min()), hi = bucket_of(reach.max());
+    const Eigen::Vector3f qf = q.cast<float>();
     double best = radius;
     long best_cell = -1;
-    for (int k = lo.z(); k <= hi.z(); ++k)
-      for (int j = lo.y(); j <= hi.y(); ++j)
-        for (int i = lo.x(); i <= hi.x(); ++i) {
-          const long bi = i + static_cast<long>(bucket_dims_.x()) *
-                                  (j + static_cast<long>(bucket_dims_.y()) * k);
-          for (long e = bucket_start_[bi]; e < bucket_start_[bi + 1]; ++e) {
-            const long ci = bucket_cells_[e];
-            Eigen::AlignedBox3d bounds;
-            for (int c = 0; c < 8; ++c) bounds.extend(corner_position(cell_of(ci), c));
-            const double d = bounds.exteriorDistance(q);
-            if (d < best || (d == best && ci < best_cell)) {
-              best = d;
-              best_cell = ci;
+    // Rings of buckets about q's: past ring r every bucket lies at least r bucket sides from q,
+    // so once the best is nearer than that the rest cannot beat it.
+    const Eigen::Vector3i centre = bucket_of(q);
+    const double side = bucket_size_.minCoeff();
+    const int rings = (hi - centre).cwiseMax(centre - lo).maxCoeff();
+    for (int r = 0; r <= rings && !(static_cast<double>(r - 1) * side > best); ++r)
+      for (int k = std::max(lo.z(), centre.z() - r); k <= std::min(hi.z(), centre.z() + r); ++k)
+        for (int j = std::max(lo.y(), centre.y() - r); j <= std::min(hi.y(), centre.y() + r); ++j)
+          for (int i = std::max(lo.x(), centre.x() - r); i <= std::min(hi.x(), centre.x() + r);
+               ++i) {
+            const Eigen::Vector3i at(i, j, k);
+            if ((at - centre).cwiseAbs().maxCoeff() != r) continue;  // an inner ring's
+            const long bi = i + static_cast<long>(bucket_dims_.x()) *
+                                    (j + static_cast<long>(bucket_dims_.y()) * k);
+            for (long e = bucket_start_[bi]; e < bucket_start_[bi + 1]; ++e) {
+              const long ci = bucket_cells_[e];
+              // The cell's bounds rounded outwards are no farther: a cell they put past the best
+              // is past it (a sheared lattice lists each cell in many of the buckets searched).
+              if (!(static_cast<double>(cell_bounds_[ci].exteriorDistance(qf)) <= best)) continue;
+              Eigen::AlignedBox3d bounds;
+              for (int c = 0; c < 8; ++c) bounds.extend(corner_position(cell_of(ci), c));
+              const double d = bounds.exteriorDistance(q);
+              if (d < best || (d == best && ci < best_cell)) {
+                best = d;
+                best_cell = ci;
+              }
             }
           }
-        }
     if (best_cell < 0) return false;
     const Eigen::Vector3i cell = cell_of(best_cell);
     double least = std::numeric_limits<double>::infinity();
@@ -349,34 +362,37 @@ class LatticeDeformer final : public Deformer {
   // The nearest preimage of q in the body's cells, else in the empty cells.
   bool search(const Eigen::Vector3d& q, bool more_starts, Eigen::Vector3d& out) const {
     if (!bucket_bounds_.contains(q)) return false;
-    double best[2] = {std::numeric_limits<double>::infinity(),
-                      std::numeric_limits<double>::infinity()};
-    Eigen::Vector3d found[2] = {q, q};
     const Eigen::Vector3i b = bucket_of(q);
     const long bi = b.x() + static_cast<long>(bucket_dims_.x()) *
                                 (b.y() + static_cast<long>(bucket_dims_.y()) * b.z());
-    for (long e = bucket_start_[bi]; e < bucket_start_[bi + 1]; ++e) {
-      const long ci = bucket_cells_[e];
-      const Eigen::Vector3i cell = cell_of(ci);
-      const int which = body_[ci] ? 0 : 1;
-      Eigen::AlignedBox3d bounds;
-      for (int c = 0; c < 8; ++c) bounds.extend(corner_position(cell, c));
-      bounds.min().array() -= 1e-9 * diagonal_;
-      bounds.max().array() += 1e-9 * diagonal_;
-      if (!bounds.contains(q)) continue;
-      Eigen::Vector3d p;
-      if (!cell_preimage(cell, q, more_starts, p)) continue;
-      const double d2 = (p - q).squaredNorm();
-      if (d2 < best[which]) {  // ties keep the lowest cell (cells are listed in order)
-        best[which] = d2;
-        found[which] = p;
+    const Eigen::Vector3f qf = q.cast<float>();
+    const Eigen::Vector3d slack = Eigen::Vector3d::Constant(1e-9 * diagonal_);
+    for (int which = 0; which < 2; ++which) {  // the body's cells, then the empty ones
+      double best = std::numeric_limits<double>::infinity();
+      for (long e = bucket_start_[bi]; e < bucket_start_[bi + 1]; ++e) {
+        const long ci = bucket_cells_[e];
+        if ((body_[ci] ? 0 : 1) != which) continue;
+        if (!cell_bounds_[ci].contains(qf)) continue;  // rounded outwards: holds every bound below
+        const Eigen::Vector3i cell = cell_of(ci);
+        // A preimage in the cell lies in its rest box: one no nearer than the best is no better.
+        const Eigen::AlignedBox3d rest_box(rest(cell) - slack,
+                                           rest(cell + Eigen::Vector3i::Ones()) + slack);
+        if (rest_box.squaredExteriorDistance(q) >= best) continue;
+        Eigen::AlignedBox3d bounds;
+        for (int c = 0; c < 8; ++c) bounds.extend(corner_position(cell, c));
+        bounds.min().array() -= 1e-9 * diagonal_;
+        bounds.max().array() += 1e-9 * diagonal_;
+        if (!bounds.contains(q)) continue;
+        Eigen::Vector3d p;
+        if (!cell_preimage(cell, q, more_starts, p)) continue;
+        const double d2 = (p - q).squaredNorm();
+        if (d2 < best) {  // ties keep the lowest cell (cells are listed in order)
+          best = d2;
+          out = p;
+        }
       }
+      if (std::isfinite(best)) return true;
     }
-    for (int which = 0; which < 2; ++which)
-      if (std::isfinite(best[which])) {
-        out = found[which];
-        return true;
-      }
     return false;
   }
 
@@ -510,6 +526,21 @@ class LatticeDeformer final : public Deformer {
             visit(i + static_cast<long>(bucket_dims_.x()) *
                           (j + static_cast<long>(bucket_dims_.y()) * k));
     };
+    // Each cell's deformed bounds in float, rounded outwards and padded by 1e-6 of the diagonal
+    // (past float's rounding of a query point, and the 1e-9 that search() allows): a quick first
+    // test of both searches, which then test the cell exactly.
+    cell_bounds_.resize(count);
+    const float inf = std::numeric_limits<float>::infinity();
+    for (long ci = 0; ci < count; ++ci) {
+      Eigen::AlignedBox3d b;
+      for (int c = 0; c < 8; ++c) b.extend(corner_position(cell_of(ci), c));
+      b.min().array() -= 1e-6 * diagonal_;
+      b.max().array() += 1e-6 * diagonal_;
+      for (int a = 0; a < 3; ++a) {
+        cell_bounds_[ci].min()[a] = std::nextafter(static_cast<float>(b.min()[a]), -inf);
+        cell_bounds_[ci].max()[a] = std::nextafter(static_cast<float>(b.max()[a]), inf);
+      }
+    }
     std::vector<long> counts(buckets, 0);
     for (long ci = 0; ci < count; ++ci) for_each_bucket(ci, [&](long b) { ++counts[b]; });
     bucket_start_.assign(buckets + 1, 0);
@@ -532,6 +563,7 @@ class LatticeDeformer final : public Deformer {
   Eigen::Vector3i bucket_dims_ = Eigen::Vector3i::Ones();
   Eigen::Vector3d bucket_size_ = Eigen::Vector3d::Ones();
   std::vector<long> bucket_start_, bucket_cells_;
+  std::vector<Eigen::AlignedBox3f> cell_bounds_;  // per cell: its deformed bounds, rounded outwards
   std::array<bool, 6> identity_{};
 };
 
