@@ -48,7 +48,7 @@ double time_ms(F&& f) {
 // fixed sampling (`raywarp study` compares the sampling methods).
 RenderSettings paper_linear() {
   RenderSettings s;
-  s.sampling = "linear";
+  s.sampling = Sampling::Linear;
   s.step_voxels = kFineStepVoxels;
   return s;
 }

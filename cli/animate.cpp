@@ -153,7 +153,7 @@ int mapped_box(const Scene& scene, const std::vector<AnimatedParam>& params, Map
           type;
     return -1;
   }
-  if (scene.render.sampling == "bounded") {
+  if (scene.render.sampling == Sampling::Bounded) {
     why = "the bounded tracer's step bounds hold for the texture as baked";
     return -1;
   }

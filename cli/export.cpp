@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 
 nlohmann::json export_animation(const Scene& scene, size_t index) {
   const BoxSpec& b = scene.boxes[index];
-  if (!b.then.empty() || b.mapping.cylindrical || scene.render.sampling == "bounded") return {};
+  if (!b.then.empty() || b.mapping.cylindrical || scene.render.sampling == Sampling::Bounded) return {};
   const char* axes = "xyz";
   if (b.deformer.type == "twist" && b.deformer.angle_deg != 0.0) {
     const int a = b.deformer.axis;
@@ -53,7 +53,7 @@ BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh) {
   // bound of its D is measured, and bounded tracing refuses it).
   // A depth cube has none either: its |f| bounds no distance.
   if (!scene.boxes[index].mapping.cylindrical && job.spec.implicit.type != "depth_cube")
-    job.sampling = "bounded";
+    job.sampling = Sampling::Bounded;
   return job;
 }
 

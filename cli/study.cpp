@@ -513,7 +513,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       if (found != bakes.end()) return found->second;
       Scene s = scene;
       s.render.texture_bits = p.bits;
-      s.render.sampling = p.method == "bounded" ? "bounded" : "linear";
+      s.render.sampling = p.method == "bounded" ? Sampling::Bounded : Sampling::Linear;
       for (BoxSpec& b : s.boxes) b = scaled_box(b, p);
       std::ostringstream log;
       return bakes.emplace(key, prepare_scene(s, log)).first->second;
@@ -537,7 +537,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       renderer.set_mesh(prepared.mesh());
       renderer.set_boxes(prepared.textures());
       RenderSettings settings = scene.render;
-      settings.sampling = "bounded";
+      settings.sampling = Sampling::Bounded;
       settings.max_steps = std::max(settings.max_steps, kBoundedMaxSteps);
       bounded_image = renderer.render(camera, options.size, options.size, settings);
     }
@@ -573,7 +573,7 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
         r.memory_bytes = size_t(m.V.rows()) * 6 * sizeof(float) + size_t(m.F.rows()) * 3 * 4;
       } else {
         const PreparedScene& prepared = bake(p);
-        settings.sampling = p.method;
+        settings.sampling = *parse_sampling(p.method);  // every method but object-space
         settings.step_voxels = p.step;
         settings.refine_steps = p.refine;
         settings.fine_factor = p.fine;
@@ -621,8 +621,9 @@ std::vector<StudyRun> run_study(const StudyOptions& options, std::ostream& progr
       g.iou = m.c.iou;
       g.missed = m.missed;
       g.texture_bytes = renderer.texture_bytes();
-      g.settings = scene.render.sampling + ", step " + fmt("%g", scene.render.step_voxels);
-      if (scene.render.sampling == "threshold")
+      g.settings = std::string(sampling_name(scene.render.sampling)) + ", step " +
+                   fmt("%g", scene.render.step_voxels);
+      if (scene.render.sampling == Sampling::Threshold)
         g.settings += ", fine " + fmt("%g", scene.render.fine_factor) + " within " +
                       fmt("%g", scene.render.threshold_voxels);
       goals.push_back(g);

@@ -256,7 +256,7 @@ nlohmann::json render_settings_to_json(const RenderSettings& s) {
           {"cut_colour", v(s.cut_colour)},
           {"inside_colour", v(s.inside_colour)},
           {"skipping", s.skipping},
-          {"sampling", s.sampling},
+          {"sampling", sampling_name(s.sampling)},
           {"threshold_voxels", s.threshold_voxels},
           {"fine_factor", s.fine_factor},
           {"hit_epsilon_voxels", s.hit_epsilon_voxels},

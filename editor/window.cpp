@@ -306,7 +306,7 @@ class Editor {
   // centres on its lower faces, so that every angle from 0 to that one is then shown through
   // the texture map M with no bake (try_map). False when the edit is not only twist angles.
   bool submit_widened() {
-    if (!baked_ || doc_->scene().render.sampling == "bounded") return false;
+    if (!baked_ || doc_->scene().render.sampling == Sampling::Bounded) return false;
     const auto changed = twist_angle_changes(doc_->json(), baked_->doc);
     if (!changed) return false;
     json document = doc_->json();
@@ -329,7 +329,7 @@ class Editor {
   // for only in twist angles within the baked ones: each such box's texture is read through the
   // map M of library/texture_map.h, no texel uploaded again. False when it cannot.
   bool try_map() {
-    if (!prepared_ || !baked_ || doc_->scene().render.sampling == "bounded") return false;
+    if (!prepared_ || !baked_ || doc_->scene().render.sampling == Sampling::Bounded) return false;
     std::vector<size_t> changed;
     if (doc_->json() != baked_->doc) {
       if (!baked_->centred) return false;
@@ -1244,7 +1244,7 @@ class Editor {
     const char* methods[] = {"threshold", "linear", "jacobian", "bounded"};
     int method = 0;
     for (int m = 0; m < 4; ++m)
-      if (scene.render.sampling == methods[m]) method = m;
+      if (sampling_name(scene.render.sampling) == std::string_view(methods[m])) method = m;
     if (ImGui::Combo("sampling", &method, methods, 4)) render["sampling"] = methods[method];
     remember("sampling");
     if (render.is_null()) working_.erase("render");

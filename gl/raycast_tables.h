@@ -8,7 +8,10 @@
 #include <bitset>
 #include <cstddef>
 #include <iterator>
+#include <optional>
 #include <string>
+
+#include "library/sampling.h"
 
 namespace raywarp::gl {
 
@@ -35,25 +38,25 @@ inline constexpr size_t kFeatureCount = static_cast<size_t>(Feature::kCount);
 
 struct FeatureInfo {
   Feature feature;
-  const char* macro;    // #defined (empty) in the variant's shader when it has the feature
-  const char* setting;  // for a Sampling* feature, its render.sampling name; else nullptr
+  const char* macro;  // #defined (empty) in the variant's shader when it has the feature
+  std::optional<Sampling> sampling;  // for a Sampling* feature, its render.sampling method
 };
 
 // Indexed by Feature.
 inline constexpr FeatureInfo kFeatures[] = {
-    {Feature::SamplingLinear, "RAYWARP_SAMPLING_LINEAR", "linear"},
-    {Feature::SamplingThreshold, "RAYWARP_SAMPLING_THRESHOLD", "threshold"},
-    {Feature::SamplingJacobian, "RAYWARP_SAMPLING_JACOBIAN", "jacobian"},
-    {Feature::SamplingBounded, "RAYWARP_SAMPLING_BOUNDED", "bounded"},
-    {Feature::Cut, "RAYWARP_CUT", nullptr},
-    {Feature::CutHollow, "RAYWARP_CUT_HOLLOW", nullptr},
-    {Feature::CutSolid, "RAYWARP_CUT_SOLID", nullptr},
-    {Feature::CutThick, "RAYWARP_CUT_THICK", nullptr},
-    {Feature::DepthCube, "RAYWARP_DEPTH_CUBE", nullptr},
-    {Feature::MovesNothing, "RAYWARP_MOVES_NOTHING", nullptr},
-    {Feature::TextureMap, "RAYWARP_TEXTURE_MAP", nullptr},
-    {Feature::Skip, "RAYWARP_SKIP", nullptr},
-    {Feature::Cylindrical, "RAYWARP_CYLINDRICAL", nullptr},
+    {Feature::SamplingLinear, "RAYWARP_SAMPLING_LINEAR", Sampling::Linear},
+    {Feature::SamplingThreshold, "RAYWARP_SAMPLING_THRESHOLD", Sampling::Threshold},
+    {Feature::SamplingJacobian, "RAYWARP_SAMPLING_JACOBIAN", Sampling::Jacobian},
+    {Feature::SamplingBounded, "RAYWARP_SAMPLING_BOUNDED", Sampling::Bounded},
+    {Feature::Cut, "RAYWARP_CUT", std::nullopt},
+    {Feature::CutHollow, "RAYWARP_CUT_HOLLOW", std::nullopt},
+    {Feature::CutSolid, "RAYWARP_CUT_SOLID", std::nullopt},
+    {Feature::CutThick, "RAYWARP_CUT_THICK", std::nullopt},
+    {Feature::DepthCube, "RAYWARP_DEPTH_CUBE", std::nullopt},
+    {Feature::MovesNothing, "RAYWARP_MOVES_NOTHING", std::nullopt},
+    {Feature::TextureMap, "RAYWARP_TEXTURE_MAP", std::nullopt},
+    {Feature::Skip, "RAYWARP_SKIP", std::nullopt},
+    {Feature::Cylindrical, "RAYWARP_CYLINDRICAL", std::nullopt},
 };
 static_assert(std::size(kFeatures) == kFeatureCount, "one kFeatures row per Feature");
 constexpr bool features_in_order() {

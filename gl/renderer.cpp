@@ -63,12 +63,10 @@ struct BoxGpu {
 };
 
 // The scene's sampling method's feature, for a box that is not sphere traced: "bounded" is only
-// uses_bounded's to decide, and a box it does not apply to (or an unknown name) is sampled
-// linearly.
-Feature sampling_feature(const std::string& sampling) {
+// uses_bounded's to decide, and a box it does not apply to is sampled linearly.
+Feature sampling_feature(Sampling sampling) {
   for (const FeatureInfo& f : kFeatures)
-    if (f.setting && f.feature != Feature::SamplingBounded && sampling == f.setting)
-      return f.feature;
+    if (f.sampling == sampling && f.feature != Feature::SamplingBounded) return f.feature;
   return Feature::SamplingLinear;
 }
 

@@ -151,7 +151,7 @@ struct BakeJob {
   BoxSpec spec;
   std::string where;  // "scene.json: boxes[0]", the prefix of error messages
   // The render settings a bake depends on.
-  std::string sampling = "threshold";
+  Sampling sampling = Sampling::Threshold;
   int texture_bits = 32;
   int max_steps = 1024;
   double step_voxels = 4.0;

@@ -513,9 +513,10 @@ RenderSettings read_render(const JsonReader& r, const json& j) {
     s.skipping = j["skipping"].get<bool>();
   }
   if (j.contains("sampling"))
-    s.sampling =
-        r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian", "bounded"});
-  if (s.sampling != "threshold" && !j.contains("step_voxels")) s.step_voxels = kFineStepVoxels;
+    s.sampling = *parse_sampling(
+        r.one_of(j["sampling"], "render.sampling", {"linear", "threshold", "jacobian", "bounded"}));
+  if (s.sampling != Sampling::Threshold && !j.contains("step_voxels"))
+    s.step_voxels = kFineStepVoxels;
   if (j.contains("threshold_voxels"))
     s.threshold_voxels =
         r.number(j["threshold_voxels"], "render.threshold_voxels", {0.0, 64.0, true, false});
@@ -562,7 +563,7 @@ Scene load_scene_json(const nlohmann::json& root, const std::filesystem::path& p
       r.required(root, "", "boxes", "give a list of 1 to " + std::to_string(kMaxBoxes) + " boxes"));
   if (root.contains("camera")) scene.camera = read_camera(r, root["camera"], folder);
   if (root.contains("render")) scene.render = read_render(r, root["render"]);
-  if (scene.render.sampling == "bounded")
+  if (scene.render.sampling == Sampling::Bounded)
     for (size_t i = 0; i < scene.boxes.size(); ++i) {
       const std::string& type = scene.boxes[i].deformer.type;
       if (is_cut(scene.boxes[i].deformer))

@@ -14,6 +14,7 @@
 #include "deformers/registry.h"
 #include "library/camera.h"
 #include "library/preintegration.h"
+#include "library/sampling.h"
 #include "library/textures.h"
 
 namespace raywarp {
@@ -141,7 +142,7 @@ struct RenderSettings {
   // The default, threshold at 4 voxels with 1/8 of that (0.5 voxel) within 2 voxels of the
   // surface, or a neighbour of it, matched linear at 0.5 voxel in every error figure of
   // `raywarp study` on the shipped scenes at 1.3-3.9x less frame time (docs/study/report.md).
-  std::string sampling = "threshold";
+  Sampling sampling = Sampling::Threshold;
   double threshold_voxels = 2.0;  // (0, 64]
   double fine_factor = 0.125;     // (0, 1]
   // "bounded": sphere tracing with Lipschitz-bounded steps (see StepBounds); a sample where

@@ -305,8 +305,8 @@ StepBound step_bound_at(const StepBounds& bounds, const Eigen::Vector3d& p_def,
   return out;
 }
 
-bool traces_bounded(const std::string& sampling, bool has_cut, bool moves_nothing) {
-  return sampling == "bounded" && !has_cut && !moves_nothing;
+bool traces_bounded(Sampling sampling, bool has_cut, bool moves_nothing) {
+  return sampling == Sampling::Bounded && !has_cut && !moves_nothing;
 }
 
 }  // namespace raywarp

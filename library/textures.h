@@ -10,6 +10,7 @@
 #include "base/grid.h"
 #include "base/interrupt.h"
 #include "library/depth_cube.h"
+#include "library/sampling.h"
 
 namespace raywarp {
 
@@ -147,7 +148,7 @@ struct BoxTextures {
 // scene asks for render.sampling "bounded" and the box's deformation is continuous and moves
 // something (a cut's D jumps, so no Lipschitz bound holds across it; a box cut moves nothing).
 // The bake then bakes the box's StepBounds, and the renderer picks the bounded shader variant.
-bool traces_bounded(const std::string& sampling, bool has_cut, bool moves_nothing);
+bool traces_bounded(Sampling sampling, bool has_cut, bool moves_nothing);
 
 // x rounded to the nearest IEEE half-precision value (ties to even), as a float; magnitudes
 // beyond the largest half (65504) are clamped to it, so the result stays finite.

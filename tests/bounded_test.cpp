@@ -186,10 +186,10 @@ TEST(Bounded, MissesNoHitOfADenseMarchOnThinShells) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   RenderSettings bounded;
-  bounded.sampling = "bounded";
+  bounded.sampling = Sampling::Bounded;
   bounded.max_steps = 20000;
   RenderSettings linear;
-  linear.sampling = "linear";
+  linear.sampling = Sampling::Linear;
   linear.step_voxels = 1.0;
   long rays = 0, dense_hits = 0, bounded_misses = 0, bounded_late = 0, linear_misses = 0,
        near_misses = 0;

@@ -468,7 +468,7 @@ BoxTextures box_textures(const BunnyScene& s, const Deformer& deformer) {
   tex.region = Eigen::AlignedBox3d(tex.deformation.grid.origin, tex.deformation.grid.upper());
   tex.lipschitz = displacement_lipschitz(deformer, tex.deformation);
   if (s.scene.render.texture_bits == 16) round_textures_to_half(tex);
-  if (s.scene.render.sampling == "bounded")
+  if (s.scene.render.sampling == Sampling::Bounded)
     tex.step_bounds = bake_step_bounds(tex.sdf, tex.deformation);
   return tex;
 }

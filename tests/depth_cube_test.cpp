@@ -389,7 +389,7 @@ TEST(DepthCubeShader, VariantsCompileAndHit) {
   b.lipschitz = 1.0;
   b.region = Eigen::AlignedBox3d(Vec3(-1, -1, -1), Vec3(1, 1, 1));
   RenderSettings linear;
-  linear.sampling = "linear";
+  linear.sampling = Sampling::Linear;
   const std::string text = gl::raycast_fragment_source(b, linear);
   EXPECT_NE(text.find("u_depth"), std::string::npos);
   EXPECT_EQ(text.find("u_sdf_origin"), std::string::npos);
@@ -400,13 +400,13 @@ TEST(DepthCubeShader, VariantsCompileAndHit) {
   struct Case {
     int cut;
     bool moves_nothing;
-    const char* sampling;
+    Sampling sampling;
   };
-  const Case cases[] = {{0, false, "linear"},
-                        {1, false, "threshold"},
-                        {2, false, "jacobian"},
-                        {3, false, "threshold"},
-                        {2, true, "linear"}};
+  const Case cases[] = {{0, false, Sampling::Linear},
+                        {1, false, Sampling::Threshold},
+                        {2, false, Sampling::Jacobian},
+                        {3, false, Sampling::Threshold},
+                        {2, true, Sampling::Linear}};
   for (const Case& c : cases) {
     BoxTextures v = b;
     v.has_cut = c.cut > 0;
@@ -425,7 +425,8 @@ TEST(DepthCubeShader, VariantsCompileAndHit) {
     const Camera camera;  // at (0, 0, 5), looking at the box
     Image image;
     EXPECT_NO_THROW(image = renderer.render(camera, 8, 8, settings))
-        << "cut " << c.cut << ", moves nothing " << c.moves_nothing << ", " << c.sampling;
+        << "cut " << c.cut << ", moves nothing " << c.moves_nothing << ", "
+        << sampling_name(c.sampling);
     EXPECT_TRUE(image.covered(4, 4)) << "cut " << c.cut << ": the cube is in the box";
   }
 }
@@ -493,7 +494,7 @@ TEST_F(DepthCubeScene, Errors) {
       << e;
   EXPECT_TRUE(has(e, "scene.json")) << e;
   // The distance grid still takes bounded tracing.
-  EXPECT_EQ(load({{"type", "sdf"}}, {{"sampling", "bounded"}}).render.sampling, "bounded");
+  EXPECT_EQ(load({{"type", "sdf"}}, {{"sampling", "bounded"}}).render.sampling, Sampling::Bounded);
 }
 
 }  // namespace

@@ -233,7 +233,7 @@ TEST(ReferenceRayCast, StartInsideHitsAtStartAndStepsAreBounded) {
   // would jump up to the narrow band's width).
   settings.max_steps = 2;
   settings.skipping = false;
-  settings.sampling = "linear";
+  settings.sampling = Sampling::Linear;
   settings.step_voxels = kFineStepVoxels;
   const Vec3 o(-3.0, 0.0, -0.05);
   auto [t0, t1] = slab(tex, o, Vec3(1, 0, 0));

@@ -28,7 +28,7 @@ TEST_P(SamplingTest, MatchesReferenceAndGroundTruth) {
   static auto context = gl::create_osmesa_context();
   const std::string root = RAYWARP_SOURCE_DIR;
   Scene scene = load_scene(root + "/examples/bunny_twist.json");
-  scene.render.sampling = GetParam();
+  scene.render.sampling = parse_sampling(GetParam()).value();
   if (GetParam() != "threshold") scene.render.step_voxels = kFineStepVoxels;
   std::ostringstream log;
   PreparedScene prepared = prepare_scene(scene, log);

@@ -126,7 +126,7 @@ TEST(Scene, MinMaxGivesCentreHalfExtentsAndDefaults) {
   EXPECT_FALSE(s.camera.has_value());
   EXPECT_EQ(s.render.width, 512);
   EXPECT_EQ(s.render.height, 512);
-  EXPECT_EQ(s.render.sampling, "threshold");
+  EXPECT_EQ(s.render.sampling, Sampling::Threshold);
   EXPECT_EQ(s.render.step_voxels, 4.0);
   EXPECT_EQ(s.render.fine_factor, 0.125);
   EXPECT_EQ(s.render.max_steps, 1024);

@@ -261,9 +261,9 @@ TEST(ShaderAssembly, EveryVariantsLinesMapToTheirFiles) {
   size_t bytes = 0;
   for (int cut = 0; cut <= 3; ++cut)
     for (const gl::FeatureInfo& f : gl::kFeatures) {
-      if (!f.setting || f.feature == gl::Feature::SamplingBounded) continue;
+      if (!f.sampling || f.feature == gl::Feature::SamplingBounded) continue;
       BoxTextures b = cut ? box_cut_box(CutMode(cut - 1)) : twist_box();
-      settings.sampling = f.setting;
+      settings.sampling = *f.sampling;
       const std::string defines = gl::raycast_defines(b, settings) + "#define RAYWARP_FRAGMENT\n";
       const std::string text = gl::assemble_shader("raycast.frag.glsl", defines);
       directives += expect_lines_map_to_sources(text, gl::ShaderFiles::embedded(), defines);
@@ -299,7 +299,7 @@ TEST(ShaderVariants, FeatureMacrosComeFromTheTable) {
     EXPECT_TRUE(tested.count(name)) << name << " is in kFeatures but no shader tests it";
 
   RenderSettings jacobian;
-  jacobian.sampling = "jacobian";
+  jacobian.sampling = Sampling::Jacobian;
   const gl::Variant cut = gl::raycast_variant(box_cut_box(CutMode::ThickShell), jacobian);
   EXPECT_TRUE(cut.has(gl::Feature::Cut) && cut.has(gl::Feature::CutThick) &&
               cut.has(gl::Feature::MovesNothing) && cut.has(gl::Feature::SamplingJacobian));
@@ -308,7 +308,7 @@ TEST(ShaderVariants, FeatureMacrosComeFromTheTable) {
             "#define RAYWARP_MOVES_NOTHING\n#define RAYWARP_SKIP\n");
   // "bounded" is traces_bounded's to decide: a box cut is not sphere traced but sampled linearly.
   RenderSettings bounded;
-  bounded.sampling = "bounded";
+  bounded.sampling = Sampling::Bounded;
   EXPECT_TRUE(
       gl::raycast_variant(box_cut_box(CutMode::Solid), bounded).has(gl::Feature::SamplingLinear));
 }
@@ -336,7 +336,7 @@ TEST(ShaderVariants, SamplersComeFromTheTextureUnitTable) {
 
 TEST(ShaderVariants, TwistHasNoCutCodeAndBoxCutNoDeformationCode) {
   RenderSettings linear;
-  linear.sampling = "linear";
+  linear.sampling = Sampling::Linear;
   const std::string twist = gl::raycast_fragment_source(twist_box(), linear);
   for (const char* word : {"u_alpha", "alpha_at", "u_cut_colour", "u_thickness", "CutFace"})
     EXPECT_FALSE(has(twist, word)) << word << " in the twist's shader";
@@ -351,7 +351,7 @@ TEST(ShaderVariants, TwistHasNoCutCodeAndBoxCutNoDeformationCode) {
   EXPECT_TRUE(has(cut, "u_cut_colour"));
 
   RenderSettings jacobian = linear;
-  jacobian.sampling = "jacobian";
+  jacobian.sampling = Sampling::Jacobian;
   const std::string twist_jacobian = gl::raycast_fragment_source(twist_box(), jacobian);
   EXPECT_TRUE(has(twist_jacobian, "jacobian_step"));
   EXPECT_GT(twist_jacobian.size(), twist.size());
@@ -389,7 +389,7 @@ gl::ShaderFiles with_broken_line(const std::string& file, int line, const std::s
 TEST(ShaderAssembly, DriverErrorsNameTheFileAndLine) {
   context();
   RenderSettings linear;
-  linear.sampling = "linear";
+  linear.sampling = Sampling::Linear;
   const std::string twist = gl::raycast_defines(twist_box(), linear);
   const std::string cut = gl::raycast_defines(box_cut_box(CutMode::Solid), linear);
   const auto& sources = gl::embedded_shaders();
@@ -454,7 +454,7 @@ TEST(ShaderVariants, EveryVariantCompiles) {
     // 2 (cut) no D and a cylindrical A.
     for (int moves = 0; moves <= (cut ? 2 : 3); ++moves)
       for (const gl::FeatureInfo& sampling : gl::kFeatures) {
-        if (!sampling.setting) continue;
+        if (!sampling.sampling) continue;
         const bool mapped = !cut && moves == 2, cylindrical = moves == (cut ? 2 : 3);
         if (sampling.feature == gl::Feature::SamplingBounded && (mapped || cylindrical)) continue;
         for (bool skipping : {false, true}) {
@@ -478,12 +478,12 @@ TEST(ShaderVariants, EveryVariantCompiles) {
           b.step_bounds.sdf_bricks = b.step_bounds.bricks;
           b.region = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1));
           RenderSettings settings;
-          settings.sampling = sampling.setting;
+          settings.sampling = *sampling.sampling;
           settings.skipping = skipping;
           renderer.set_boxes({b});
           Camera camera;
           EXPECT_NO_THROW(renderer.render(camera, 8, 8, settings))
-              << "cut " << cut << ", moves " << moves << ", " << sampling.setting;
+              << "cut " << cut << ", moves " << moves << ", " << sampling_name(*sampling.sampling);
           ++renders;
           const gl::Variant variant = gl::raycast_variant(b, settings);
           for (const gl::FeatureInfo& f : gl::kFeatures)

@@ -231,7 +231,7 @@ TEST(ViewerAssets, MeshBinLayout) {
 
 TEST(ViewerAssets, RenderSettingsJsonReadsBack) {
   RenderSettings s;
-  s.sampling = "linear";
+  s.sampling = Sampling::Linear;
   s.step_voxels = 0.5;
   s.skipping = false;
   s.background = {0.1, 0.2, 0.3};

@@ -149,7 +149,7 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
   // mark: docs/meshes.md.
   if (!box.deformer->has_cut()) {
     Scene traced = scene;
-    traced.render.sampling = "bounded";
+    traced.render.sampling = Sampling::Bounded;
     std::ostringstream traced_log;
     const PreparedScene bounded = prepare_scene(traced, traced_log);
     gl::Renderer bounded_renderer;
@@ -160,7 +160,7 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
     // coarse steps, and what to the hit rules (bounded counts a sample within its epsilon of the
     // surface as the hit; a linear search needs a sample inside).
     RenderSettings fine = scene.render;
-    fine.sampling = "linear";
+    fine.sampling = Sampling::Linear;
     fine.step_voxels = kFineStepVoxels;
     fine.max_steps = 16 * scene.render.max_steps;
     const Image linear = renderer.render(camera, kSize, kSize, fine);

@@ -49,7 +49,7 @@ Truth ground_truth(const Scene& scene, const PreparedScene& prepared, const Came
   // surface): the CPU ray cast of the scene's own textures at 1/16-voxel steps. It measures the
   // sampling's error, not the textures'.
   RenderSettings fine = scene.render;
-  fine.sampling = "linear";
+  fine.sampling = Sampling::Linear;
   fine.step_voxels = 1.0 / 16.0;
   fine.refine_steps = 16;
   fine.max_steps = 100000;

@@ -515,20 +515,20 @@ std::optional<RayHit> ray_cast_box(const BoxTextures& box, const Eigen::Vector3d
   double t_before = t0, v_before = -1e30;  // the sample before the last one
   bool grazed = false;                     // the first grazing bracket, if any
   double graze_l = t0, graze_r = t0;
-  const bool bounded = settings.sampling == "bounded" && !box.has_cut && !box.moves_nothing;
+  const bool bounded = settings.sampling == Sampling::Bounded && !box.has_cut && !box.moves_nothing;
   if (bounded) {
     hit = bounded_search(box, o, d, t0, t1, crossings, settings, &lo, &hi);
     t = t1;  // no linear search
   }
   for (int i = 1; i <= settings.max_steps + 6 && !hit && t < t1; ++i) {
     double advance = step;
-    if (settings.sampling == "threshold") {
+    if (settings.sampling == Sampling::Threshold) {
       const double watched = std::abs(hollow ? s.f : value(box, s));
       if (s.valid)
         advance = watched < settings.threshold_voxels * implicit_spacing(box)
                       ? step * settings.fine_factor
                       : std::min(watched, step);
-    } else if (settings.sampling == "jacobian" && !box.moves_nothing) {
+    } else if (settings.sampling == Sampling::Jacobian && !box.moves_nothing) {
       advance = jacobian_step(box, o + t * d, d, step);
     }
     if (skip) advance = std::max(advance, skip_distance(box, s));

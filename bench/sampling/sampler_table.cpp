@@ -116,11 +116,11 @@ int main(int argc, char** argv) {
         Scene scene = load_scene(file);
         const Camera camera = *scene.camera;
         if (k == 1) {
-          scene.render.sampling = "linear";
+          scene.render.sampling = Sampling::Linear;
           scene.render.step_voxels = kFineStepVoxels;
           scene.render.max_steps *= 16;
         } else if (k == 2) {
-          scene.render.sampling = "bounded";
+          scene.render.sampling = Sampling::Bounded;
         }
         std::ostringstream log;
         const PreparedScene prepared = prepare_scene(scene, log);
