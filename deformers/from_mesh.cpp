@@ -80,19 +80,23 @@ struct Grid {
   }
 };
 
+// The lattice of `cells` cells of side `spacing`.
+Grid lattice_grid(const Eigen::Vector3i& cells, const Eigen::Vector3d& spacing) {
+  Grid g;
+  g.cells = cells;
+  g.spacing = spacing;
+  g.nodes = cells + Eigen::Vector3i::Ones();
+  g.count = static_cast<long>(g.nodes.prod());
+  return g;
+}
+
+// The multigrid's lattices, the finest first, each halving the last's cells, down to kCoarsest.
 std::vector<Grid> hierarchy(const Eigen::Vector3i& cells, const Eigen::Vector3d& spacing) {
-  std::vector<Grid> grids(1);
-  grids[0].cells = cells;
-  grids[0].spacing = spacing;
+  std::vector<Grid> grids{lattice_grid(cells, spacing)};
   while (grids.back().cells.maxCoeff() > kCoarsest) {
-    Grid next;
-    for (int a = 0; a < 3; ++a) next.cells[a] = (grids.back().cells[a] + 1) / 2;
-    next.spacing = 2.0 * grids.back().spacing;
-    grids.push_back(next);
-  }
-  for (Grid& g : grids) {
-    g.nodes = g.cells + Eigen::Vector3i::Ones();
-    g.count = static_cast<long>(g.nodes.prod());
+    Eigen::Vector3i coarser;
+    for (int a = 0; a < 3; ++a) coarser[a] = (grids.back().cells[a] + 1) / 2;
+    grids.push_back(lattice_grid(coarser, 2.0 * grids.back().spacing));
   }
   return grids;
 }
@@ -925,8 +929,7 @@ Eigen::Vector3d rest_position(const Eigen::Vector3d& h, const Eigen::Vector3d& s
 
 // A fitted lattice: every sample at rest + u.
 struct LatticeFit {
-  Grid grid;
-  Eigen::Vector3d spacing;
+  Grid grid;  // its cells and spacing
   std::vector<Eigen::Vector3d> positions;
   int iterations = 0;
   double relative_residual = 0;
@@ -1037,7 +1040,6 @@ LatticeFit fit_lattice(const Eigen::Vector3d& h, const std::vector<Eigen::Vector
   // Every lattice sample at rest + u.
   LatticeFit out;
   out.grid = grid;
-  out.spacing = spacing;
   out.positions.resize(static_cast<size_t>(grid.count));
   for (long n = 0; n < grid.count; ++n)
     out.positions[n] =
@@ -1076,7 +1078,7 @@ LatticeFit fit_pairs(const Eigen::Vector3d& h, const std::vector<Eigen::Vector3d
   std::vector<Eigen::Vector3d> targets(sources.size());
   for (size_t i = 0; i < sources.size(); ++i) targets[i] = sources[i] + displacements[i];
   // The pinned faces' samples, which the paths hold at rest at both ends.
-  const Grid grid = hierarchy(cells, spacing)[0];
+  const Grid grid = lattice_grid(cells, spacing);
   std::vector<char> on_pin(static_cast<size_t>(grid.count), 0);
   std::vector<Eigen::Vector3d> held;
   for (long n = 0; n < grid.count; ++n) {
@@ -1123,7 +1125,6 @@ LatticeFit fit_pairs(const Eigen::Vector3d& h, const std::vector<Eigen::Vector3d
   // What the composition leaves, fitted on the box's lattice and added.
   LatticeFit base;
   base.grid = grid;
-  base.spacing = spacing;
   base.positions = std::move(composed);
   std::vector<Eigen::Vector3d> left(sources.size());
   parallel_for(
