@@ -12,10 +12,6 @@ namespace raywarp {
 
 namespace {
 
-// sin(y) / y with its limit 1 at 0. For |y| < 2^-26 sin(y) rounds to y, so the quotient is 1 to
-// the last bit and no special range is needed beyond y == 0.
-double sinc(double y) { return y == 0.0 ? 1.0 : std::sin(y) / y; }
-
 // The axes of a bend about d (Blender's simpleDeform_bend): limit axis a, bend direction b.
 struct BendAxes {
   int d, a, b;

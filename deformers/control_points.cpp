@@ -31,19 +31,7 @@ constexpr int kNewtonIterations = 50;
 constexpr int kHalvings = 10;
 constexpr int kStall = 5;
 
-std::string vector_text(const Eigen::Vector3d& v) {
-  std::string text = "[";
-  for (int i = 0; i < 3; ++i) {
-    if (i > 0) text += ", ";
-    text += shortest_text(v[i]);
-  }
-  text += ']';
-  return text;
-}
-
 std::string point_name(size_t i) { return "points[" + std::to_string(i) + "]"; }
-
-Face face_of(int f) { return Face{static_cast<Axis>(f / 2), f % 2 ? 1 : -1}; }
 
 // The pin mask of one axis: which of its faces are pinned.
 enum class Pin { None, Minus, Plus, Both };

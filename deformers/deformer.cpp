@@ -20,6 +20,20 @@ std::string shortest_text(double x) {
   return std::string(buf, end);
 }
 
+std::string vector_text(const Eigen::Vector3d& v) {
+  std::string text = "[";
+  for (int i = 0; i < 3; ++i) {
+    if (i > 0) text += ", ";
+    text += shortest_text(v[i]);
+  }
+  text += ']';
+  return text;
+}
+
+// For |y| < 2^-26 sin(y) rounds to y, so the quotient is 1 to the last bit and no special range
+// is needed beyond y == 0.
+double sinc(double y) { return y == 0.0 ? 1.0 : std::sin(y) / y; }
+
 void check_half_extents(const char* what, const Eigen::Vector3d& half_extents) {
   for (int i = 0; i < 3; ++i)
     if (!(half_extents[i] > 0.0) || !std::isfinite(half_extents[i]))
@@ -40,6 +54,8 @@ char axis_name(Axis a) {
 }
 
 std::string face_name(Face f) { return std::string(f.side > 0 ? "+" : "-") + axis_name(f.axis); }
+
+Face face_of(int index) { return Face{static_cast<Axis>(index / 2), index % 2 ? 1 : -1}; }
 
 FoldReport measure_folds(const Deformer& deformer, const Eigen::Vector3d& half_extents,
                          int samples_per_axis, Interrupter* interrupter) {

@@ -27,6 +27,8 @@ struct Face {
   int side = 1;
 };
 std::string face_name(Face f);
+// Face `index` of 0..5 in the order -x, +x, -y, +y, -z, +z (identity_faces, pinned faces).
+Face face_of(int index);
 
 class Deformer {
  public:
@@ -76,6 +78,10 @@ M clamp_finite(const M& m) {
 
 // Shortest decimal text that reads back as x ("360", "1e-06"), for messages.
 std::string shortest_text(double x);
+// "[x, y, z]" in shortest_text's form.
+std::string vector_text(const Eigen::Vector3d& v);
+// sin(y) / y, 1 at 0: the chord of an arc over its length (the bend's and the peel's arcs).
+double sinc(double y);
 // Throws Error "<what> half_extents[i] = v: must be > 0 and finite" for a bad box.
 void check_half_extents(const char* what, const Eigen::Vector3d& half_extents);
 

@@ -32,16 +32,9 @@ constexpr double kFlatSpread = 1e-9;
 constexpr double kTurnThreshold = 1.75;
 constexpr double kTurnStep = 0.75;
 
-std::string vector_text(const Eigen::Vector3d& v) {
-  return "[" + shortest_text(v.x()) + ", " + shortest_text(v.y()) + ", " + shortest_text(v.z()) +
-         "]";
-}
-
 std::string mib_text(std::size_t bytes) {
   return std::to_string((bytes + (std::size_t(1) << 19)) >> 20) + " MiB";
 }
-
-const char* const kFaceNames[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
 
 // The trilinear weight of corner c of a point's cell (corner c at offset (c & 1, c >> 1 & 1,
 // c >> 2)), f the point's coordinates in the cell.
@@ -900,7 +893,7 @@ std::string describe_fit(long n_pairs, const Eigen::Vector3i& cells, const FromM
       shortest_text(params.smoothness);
   std::string faces;
   for (int f = 0; f < 6; ++f)
-    if (params.pinned[f]) faces += std::string(" ") + kFaceNames[f];
+    if (params.pinned[f]) faces += " " + face_name(face_of(f));
   if (!faces.empty()) text += ", pinned" + faces;
   return text + ")";
 }

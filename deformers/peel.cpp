@@ -11,9 +11,6 @@ namespace raywarp {
 
 namespace {
 
-// sin(y) / y with its limit 1 at 0 (as in bend.cpp).
-double sinc(double y) { return y == 0.0 ? 1.0 : std::sin(y) / y; }
-
 // Blender's bend in the (s, v) plane, restated from bend.h with q_a = s, q_b = v, curvature
 // k = 1 / R and limit length L = R Theta (the flap curls from s = 0 on). Its inputs have s >= 0
 // except inverse(), which covers the whole plane.

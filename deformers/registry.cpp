@@ -31,8 +31,6 @@ constexpr double kMaxCoordinate = 1e12;
 constexpr size_t kMaxControlPoints = 1024;  // the interpolant's dense solve grows as n^3
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-const char* const kFaceNames[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
-
 // Declarations, shortened.
 ParamDecl axis_param(std::string meaning, std::string hint) {
   ParamDecl p;
@@ -831,7 +829,7 @@ void describe_params(const std::vector<ParamDecl>& params, const DeformerSpec& d
         }
         value = "[";
         for (int f = 0; f < 6; ++f)
-          if (d.pinned[f]) value += std::string(value.size() > 1 ? ", " : "") + kFaceNames[f];
+          if (d.pinned[f]) value += (value.size() > 1 ? ", " : "") + face_name(face_of(f));
         value += "]";
         break;
       case ParamKind::Choice:

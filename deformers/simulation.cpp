@@ -567,8 +567,6 @@ class LatticeDeformer final : public Deformer {
   std::array<bool, 6> identity_{};
 };
 
-const char* const kFaceNames[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
-
 std::unique_ptr<physics::Integrator> make_integrator(SimIntegrator which) {
   switch (which) {
     case SimIntegrator::explicit_euler:
@@ -724,8 +722,7 @@ Simulation::Simulation(const SimulationParams& params, const Eigen::Vector3d& ha
   m.pinned_faces = faces;
   for (int f = 0; f < 6; ++f)
     if (faces[f])
-      m.stats.pinned_faces +=
-          (m.stats.pinned_faces.empty() ? "" : ", ") + std::string(kFaceNames[f]);
+      m.stats.pinned_faces += (m.stats.pinned_faces.empty() ? "" : ", ") + face_name(face_of(f));
   for (size_t n = 0; n < sample_of.size(); ++n)
     for (int f = 0; f < 6; ++f)
       if (faces[f] && sample_of[n][f / 2] == ((f % 2) ? m.cells[f / 2] : 0))

@@ -499,7 +499,6 @@ bool box_holds_mesh(const Mesh& mesh, const Box& box) {
 }
 
 std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Deformer& deformer) {
-  static const char* names[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
   auto identity = deformer.identity_faces();
   std::vector<Eigen::Vector3d> local(mesh.V.rows());
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
@@ -526,7 +525,7 @@ std::vector<std::string> torn_faces(const Mesh& mesh, const Box& box, const Defo
   }
   std::vector<std::string> out;
   for (int face = 0; face < 6; ++face)
-    if (crossed[face]) out.push_back(names[face]);
+    if (crossed[face]) out.push_back(face_name(face_of(face)));
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "base/atomic_file.h"
 #include "base/error.h"
 #include "base/version.h"
+#include "deformers/deformer.h"
 #include "library/atlas.h"
 #include "library/bake_cache.h"
 #include "library/dds.h"
@@ -403,11 +404,10 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   }
   if (tex.uses_depth_cube) {
     const DepthCube& cube = tex.depth_cube;
-    static const char* kFaces[6] = {"-x", "+x", "-y", "+y", "-z", "+z"};
     nlohmann::json maps = nlohmann::json::array();
     for (int k = 0; k < 6; ++k) {
       const DepthMap& m = cube.maps[k];
-      maps.push_back({{"face", kFaces[k]},
+      maps.push_back({{"face", face_name(face_of(k))},
                       {"slice", k},
                       {"u_axis", std::string(1, "xyz"[m.u_axis])},
                       {"v_axis", std::string(1, "xyz"[m.v_axis])},
