@@ -9,6 +9,7 @@
 #include <regex>
 #include <sstream>
 
+#include "base/clock.h"
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/pipeline.h"
@@ -173,10 +174,6 @@ int mapped_box(const Scene& scene, const std::vector<AnimatedParam>& params, Map
   }
   how = angle ? Mapped::twist_angle : Mapped::peel_hinge;
   return static_cast<int>(box);
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 }  // namespace

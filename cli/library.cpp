@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "base/atomic_file.h"
+#include "base/clock.h"
 #include "base/error.h"
 #include "base/format.h"
 #include "base/version.h"
@@ -177,10 +178,6 @@ Image render_textures(const Scene& scene, const Mesh& mesh, const std::vector<Bo
 Eigen::Vector2i thumbnail_size(const Eigen::Vector2i& full, int side) {
   const double s = double(side) / std::max(full.x(), full.y());
   return {std::max(1, int(std::lround(full.x() * s))), std::max(1, int(std::lround(full.y() * s)))};
-}
-
-std::string seconds_since(std::chrono::steady_clock::time_point t) {
-  return fmt("%.1f", std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count());
 }
 
 // Builds one entry into OUT/entries/NAME (see the header); returns its record.
@@ -454,7 +451,7 @@ int run_library(const LibraryOptions& o, std::ostream& log) {
       ++built;
       const long w = r["warnings"].get<long>();
       progress_bar(log, ++done, total,
-                   s.name + ": built in " + seconds_since(start) + " s" +
+                   s.name + ": built in " + fmt("%.1f", seconds_since(start)) + " s" +
                        (w ? ", " + std::to_string(w) + " warnings" : std::string()));
       if (w)
         for (std::string line; std::getline(report, line);)

@@ -206,429 +206,438 @@ FromMeshParams from_mesh_params(const DeformerSpec& d, const Eigen::Vector3d& h,
 
 namespace {
 
+DeformerType twist_type() {
+  DeformerType t;
+  t.name = "twist";
+  t.summary =
+      "rotation about an axis growing from 0 at the box's lower face to angle_deg at its "
+      "upper face (Blender's Simple Deform, mode Twist)";
+  t.params = {axis_param("the twist axis", "give one of x, y, z"),
+              number_param("angle_deg", &DeformerSpec::angle_deg, Interval{}, "degrees",
+                           "the angle at the upper face; any finite value (several turns)",
+                           "give the angle in degrees")};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_twist(h, static_cast<Axis>(d.axis), d.angle_deg);
+  };
+  t.examples = {{{"axis", "y"}, {"angle_deg", 360}}, {{"axis", "x"}, {"angle_deg", -90}}};
+  return t;
+}
+
+DeformerType bend_type() {
+  DeformerType t;
+  t.name = "bend";
+  t.summary =
+      "bend about an axis through the box centre, the box's lower face fixed (Blender's "
+      "Simple Deform, mode Bend)";
+  t.params = {axis_param("the bend axis", "give one of x, y, z"),
+              number_param("angle_deg", &DeformerSpec::angle_deg, {-360.0, 360.0, true, true},
+                           "degrees", "the bend angle over the box", "give the angle in degrees")};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_bend(h, static_cast<Axis>(d.axis), d.angle_deg);
+  };
+  t.examples = {{{"axis", "z"}, {"angle_deg", 90}}, {{"axis", "x"}, {"angle_deg", -200}}};
+  return t;
+}
+
+DeformerType taper_type() {
+  DeformerType t;
+  t.name = "taper";
+  t.summary =
+      "scale across an axis by 1 + factor t, t from 0 at the box's lower face to 1 at "
+      "its upper face (Blender's Simple Deform, mode Taper)";
+  t.params = {axis_param("the taper axis", "give one of x, y, z"),
+              number_param("factor", &DeformerSpec::factor, {-1.0, 10.0, true, false}, "",
+                           "Blender's factor: the relative change of the width at the upper "
+                           "face",
+                           "give the taper factor, e.g. 0.8")};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_taper(h, static_cast<Axis>(d.axis), d.factor);
+  };
+  t.examples = {{{"axis", "y"}, {"factor", 0.8}}, {{"axis", "z"}, {"factor", -0.6}}};
+  return t;
+}
+
+DeformerType stretch_type() {
+  DeformerType t;
+  t.name = "stretch";
+  t.summary =
+      "stretch along an axis with the matching squeeze across it, by the square of the "
+      "coordinate in object units, as Blender does (Simple Deform, mode Stretch)";
+  t.params = {axis_param("the stretch axis", "give one of x, y, z"),
+              number_param("factor", &DeformerSpec::factor, Interval{}, "",
+                           "Blender's factor; the box's length along the axis bounds it "
+                           "(the error says how)",
+                           "give the stretch factor, e.g. 0.5")};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_stretch(h, static_cast<Axis>(d.axis), d.factor);
+  };
+  t.examples = {{{"axis", "y"}, {"factor", 0.5}}, {{"axis", "x"}, {"factor", -0.3}}};
+  return t;
+}
+
+DeformerType detail_type() {
+  DeformerType t;
+  t.name = "detail";
+  t.summary =
+      "a seeded vector noise displacement of at most `scale`, windowed to 0 on the box faces; "
+      "in a list it comes last and is added to the list's inverse displacement, as Correa & "
+      "Silver add textures for detail (section 4)";
+  t.params = {
+      number_param("scale", &DeformerSpec::scale, {0.0, kMaxCoordinate, false, false, true},
+                   "object units",
+                   "the largest displacement; at most 1/2 over the noise's Lipschitz bound, so "
+                   "that it never folds (the error gives the limit)",
+                   "give the detail's displacement in object units, e.g. 0.1"),
+      number_param("wavelength", &DeformerSpec::wavelength,
+                   {0.0, kMaxCoordinate, false, false, true}, "object units",
+                   "the noise's mean wavelength, also the width of the window's falloff at the "
+                   "faces; 0 = a quarter of the box's shortest side",
+                   "", "0"),
+      number_param("seed", &DeformerSpec::seed, closed(0, 4294967295.0), "",
+                   "picks the noise: a whole number", "", "1")};
+  t.check = [](const JsonReader& r, const json& j, const std::string& field,
+               const DeformerSpec& d) {
+    if (d.seed != std::floor(d.seed))
+      r.fail(child(field, "seed"), j["seed"], "must be a whole number in [0, 4294967295]");
+  };
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    const double wavelength = d.wavelength > 0.0 ? d.wavelength : 0.5 * h.minCoeff();
+    return make_detail(h, d.scale, wavelength, static_cast<std::uint64_t>(d.seed));
+  };
+  t.examples = {{{"scale", 0.02}, {"wavelength", 0.5}, {"seed", 7}},
+                {{"scale", 0.03}},
+                {{"scale", 0.015}, {"wavelength", 0.3}, {"seed", 4294967295.0}}};
+  return t;
+}
+
+DeformerType peel_type() {
+  DeformerType t;
+  t.name = "peel";
+  t.summary =
+      "a layer of the box cut from one face and curled away about an axis (Correa & "
+      "Silver, section 5)";
+  t.cuts = true;
+  t.params = {axis_param("the curl axis", "give the curl axis, one of x, y, z"),
+              from_param("the face the layer is peeled from, on another axis than `axis`"),
+              number_param("angle_deg", &DeformerSpec::angle_deg, {0.0, 180.0, true, false},
+                           "degrees", "how far the flap curls", "give the curl angle in degrees"),
+              number_param("thickness", &DeformerSpec::thickness, kPositive, "object units",
+                           "the layer's thickness, below 2 h of the face's axis",
+                           "give the layer thickness in object units"),
+              number_param("radius", &DeformerSpec::radius, kPositive, "object units",
+                           "the curl radius", "give the curl radius in object units"),
+              number_param("hinge", &DeformerSpec::hinge, Interval{}, "object units",
+                           "where the flap starts along the peel direction, in [-h, h)", "", "0")};
+  t.check = check_from_face;
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_peel(h, static_cast<Axis>(d.axis),
+                     Face{static_cast<Axis>(d.from_axis), d.from_side}, d.angle_deg, d.thickness,
+                     d.radius, d.hinge);
+  };
+  t.examples = {
+      {{"axis", "z"}, {"from", "+y"}, {"angle_deg", 120}, {"thickness", 0.4}, {"radius", 0.6}},
+      {{"axis", "x"},
+       {"from", "-z"},
+       {"angle_deg", 60},
+       {"thickness", 0.3},
+       {"radius", 1.0},
+       {"hinge", -0.5}}};
+  return t;
+}
+
+DeformerType incision_type() {
+  DeformerType t;
+  t.name = "incision";
+  t.summary =
+      "a planar cut from one face, pushed open into a wedge-shaped gap (Correa & Silver, "
+      "section 5)";
+  t.cuts = true;
+  t.params = {
+      axis_param("the normal of the cut plane", "give the normal of the cut plane, one of x, y, z"),
+      from_param("the face the cut enters through, on another axis than `axis`"),
+      number_param("depth", &DeformerSpec::depth, kPositive, "object units",
+                   "how far the cut reaches from its face, up to 2 h of that axis",
+                   "give the depth of the cut in object units"),
+      number_param("opening", &DeformerSpec::opening, kPositive, "object units",
+                   "the gap's width at the face, below 2 h of `axis`",
+                   "give the width of the gap in object units")};
+  t.check = check_from_face;
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_incision(h, static_cast<Axis>(d.axis),
+                         Face{static_cast<Axis>(d.from_axis), d.from_side}, d.depth, d.opening);
+  };
+  t.examples = {{{"axis", "x"}, {"from", "+y"}, {"depth", 1.5}, {"opening", 0.5}},
+                {{"axis", "z"}, {"from", "-x"}, {"depth", 0.8}, {"opening", 0.3}}};
+  return t;
+}
+
+DeformerType box_cut_type() {
+  DeformerType t;
+  t.name = "box_cut";
+  t.summary =
+      "removes a sub-box of the box, optionally only a wedge of it about an axis through "
+      "the centre; moves nothing";
+  t.cuts = true;
+  ParamDecl sub_min;
+  sub_min.key = "sub_min";
+  sub_min.kind = ParamKind::Fractions;
+  sub_min.meaning = "the removed sub-box's lower corner, fractions of the box (0 = min face)";
+  sub_min.default_text = "[0, 0, 0]";
+  sub_min.field = &DeformerSpec::sub_min;
+  ParamDecl sub_max = sub_min;
+  sub_max.key = "sub_max";
+  sub_max.meaning = "its upper corner (1 = max face)";
+  sub_max.default_text = "[1, 1, 1]";
+  sub_max.field = &DeformerSpec::sub_max;
+  ParamDecl wedge;
+  wedge.key = "wedge";
+  wedge.kind = ParamKind::Group;
+  wedge.meaning = "only the wedge of the sub-box from from_deg over angle_deg about axis";
+  wedge.default_text = "none";
+  wedge.group_hint = "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}";
+  ParamDecl wedge_axis = axis_param("the wedge's axis", "give the wedge's axis, one of x, y, z");
+  wedge_axis.field = &DeformerSpec::wedge_axis;
+  wedge.children = {
+      wedge_axis,
+      number_param("from_deg", &DeformerSpec::wedge_from_deg, Interval{}, "degrees",
+                   "where the wedge starts", "", "0"),
+      number_param("angle_deg", &DeformerSpec::wedge_angle_deg, {0.0, 180.0, true, false},
+                   "degrees", "the wedge's angle", "give the wedge's angle in degrees")};
+  t.params = {sub_min, sub_max, wedge};
+  t.check = check_sub_box;
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h,
+              std::vector<std::string>*) -> std::unique_ptr<Deformer> {
+    BoxCutParams params;
+    params.sub_min = d.sub_min;
+    params.sub_max = d.sub_max;
+    params.wedge_axis = static_cast<Axis>(d.wedge_axis);
+    params.wedge_from_deg = d.wedge_from_deg;
+    params.wedge_angle_deg = d.wedge_angle_deg;
+    return make_box_cut(h, params);
+  };
+  t.examples = {{{"sub_min", {0.5, 0.5, 0.0}}},
+                {{"sub_min", {0, 0.3, 0}},
+                 {"sub_max", {1, 1, 0.8}},
+                 {"wedge", {{"axis", "y"}, {"from_deg", 10}, {"angle_deg", 90}}}}};
+  return t;
+}
+
+DeformerType groove_type() {
+  DeformerType t;
+  t.name = "groove";
+  t.summary =
+      "a round cut: removes the ring farther than radius from an axis through the centre, "
+      "within a slab of width about the centre; moves nothing";
+  t.cuts = true;
+  t.params = {axis_param("the groove's axis", "give the groove's axis, one of x, y, z"),
+              number_param("radius", &DeformerSpec::radius, kPositive, "object units",
+                           "the groove's inner radius: what lies farther from the axis goes",
+                           "give the groove's inner radius in object units"),
+              // The slab's width along the axis, held in the spec's `opening`.
+              number_param("width", &DeformerSpec::opening, kPositive, "object units",
+                           "the groove's width along the axis, up to 2 h of that axis",
+                           "give the groove's width in object units")};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
+    return make_groove(h, static_cast<Axis>(d.axis), d.radius, d.opening);
+  };
+  t.examples = {{{"axis", "y"}, {"radius", 0.6}, {"width", 0.5}},
+                {{"axis", "x"}, {"radius", 0.8}, {"width", 1.2}}};
+  return t;
+}
+
+DeformerType control_points_type() {
+  DeformerType t;
+  t.name = "control_points";
+  t.summary =
+      "source -> target pairs interpolated by radial basis functions (global r^3 with an "
+      "affine part, or Wendland C2 within a radius), pinned faces exact";
+  ParamDecl points;
+  points.key = "points";
+  points.kind = ParamKind::Points;
+  points.required = true;
+  points.unit = "object coordinates";
+  points.meaning = "1 to 1024 pairs {\"from\": [x, y, z], \"to\": [x, y, z]}, each from in the box";
+  points.hint = "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs";
+  ParamDecl pinned;
+  pinned.key = "pinned";
+  pinned.kind = ParamKind::Faces;
+  pinned.meaning = "box faces held fixed, e.g. [\"-y\"]";
+  pinned.default_text = "[]";
+  t.params = {points,
+              number_param("radius", &DeformerSpec::influence_radius,
+                           {0.0, kMaxCoordinate, false, false, true}, "object units",
+                           "each point's radius of influence; 0 = the whole box", "", "0"),
+              pinned};
+  t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>* w) {
+    std::vector<ControlPoint> points;
+    for (const PointPair& p : d.points) points.push_back({p.source, p.target});
+    return make_control_points(h, std::move(points), d.influence_radius, d.pinned, w);
+  };
+  t.examples = {{{"points", {{{"from", {0, 1.0, 0}}, {"to", {0.3, 1.2, 0}}}}}, {"pinned", {"-y"}}},
+                {{"points",
+                  {{{"from", {0.5, 0.5, 0}}, {"to", {0.7, 0.4, 0.1}}},
+                   {{"from", {-0.5, 0.8, 0.2}}, {"to", {-0.5, 1.0, 0.2}}}}},
+                 {"radius", 1.2}}};
+  return t;
+}
+
+DeformerType simulation_type() {
+  DeformerType t;
+  t.name = "simulation";
+  t.summary =
+      "a mass-spring body over the mesh part (Mosegaard & Sorensen's 18-neighbour grid, or "
+      "Kuhn tetrahedra as in Tejada & Ertl), run from rest under gravity, pins and drags; "
+      "its last state deforms the part (docs/simulation.md)";
+  ParamDecl model;
+  model.key = "model";
+  model.kind = ParamKind::Choice;
+  model.choices = sim_model_names();
+  model.meaning = "grid: springs to 18 neighbours, trilinear F; tets: Kuhn tetrahedra, linear F";
+  model.default_text = "grid";
+  model.field = &DeformerSpec::sim_model;
+  ParamDecl integrator = model;
+  integrator.key = "integrator";
+  integrator.choices = sim_integrator_names();
+  integrator.meaning = "how a step is taken (docs/physics.md)";
+  integrator.default_text = "implicit_euler";
+  integrator.field = &DeformerSpec::sim_integrator;
+  ParamDecl gravity;
+  gravity.key = "gravity";
+  gravity.kind = ParamKind::Direction;
+  gravity.range = closed(-1e9, 1e9);
+  gravity.unit = "object units / s^2";
+  gravity.meaning = "acceleration of gravity, object axes";
+  gravity.default_text = "[0, -9.81, 0]";
+  gravity.field = &DeformerSpec::gravity;
+  ParamDecl pins;
+  pins.key = "pins";
+  pins.kind = ParamKind::Faces;
+  pins.meaning = "box faces whose nodes are held at rest";
+  pins.default_text = "the faces the mesh crosses";
+  ParamDecl drags;
+  drags.key = "drags";
+  drags.kind = ParamKind::Drags;
+  drags.unit = "object units, s";
+  drags.meaning =
+      "nodes in a sub-box (fractions, like box_cut) moved along a path of "
+      "{\"t\", \"offset\"} keys";
+  drags.default_text = "[]";
+  t.params = {
+      model,
+      number_param("resolution", &DeformerSpec::sim_resolution, closed(2, 128), "cells",
+                   "lattice cells along the box's longest side", "", "16"),
+      number_param("margin", &DeformerSpec::sim_margin, {0.0, kMaxCoordinate, false, false, true},
+                   "object units", "how far outside the mesh the body reaches", "",
+                   "the cell diagonal"),
+      number_param("density", &DeformerSpec::density, {0.0, 1e9, true, false}, "mass / unit^3",
+                   "mass per volume (lumped on the nodes)", "", "1000"),
+      number_param("ks", &DeformerSpec::ks, {0.0, 1e9, true, false}, "force / unit",
+                   "spring stiffness (Tejada & Ertl's ks; Mosegaard & Sorensen's k is 2 ks)",
+                   "give the spring stiffness in force per object unit, e.g. 3e4"),
+      number_param("kd", &DeformerSpec::kd, closed(0, 1e9), "force s / unit",
+                   "damping of the relative velocity of each spring's two nodes", "", "0"),
+      integrator,
+      number_param("dt", &DeformerSpec::dt, {0.0, 1.0, true, false}, "s", "time step", "", "0.01"),
+      number_param("steps", &DeformerSpec::sim_steps, closed(1, 100000), "",
+                   "steps run from rest; the last state deforms the part", "", "100"),
+      gravity,
+      pins,
+      drags};
+  t.check = check_simulation;
+  t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h, const SimulationInput& part,
+                      std::vector<std::string>* w,
+                      Interrupter* interrupter) -> std::unique_ptr<Deformer> {
+    Simulation sim(simulation_params(d), h, part, w, interrupter);
+    sim.run(0, nullptr, interrupter);
+    return sim.deformer(sim.positions());
+  };
+  t.examples = {
+      {{"ks", 3e4}, {"steps", 20}, {"gravity", {0, -2, 0}}},
+      {{"model", "tets"},
+       {"ks", 1e4},
+       {"resolution", 8},
+       {"steps", 10},
+       {"pins", {"-y"}},
+       {"drags",
+        {{{"sub_min", {0, 0.9, 0}}, {"path", {{{"t", 0.1}, {"offset", {0.05, 0, 0}}}}}}}}}};
+  return t;
+}
+
+DeformerType from_mesh_type() {
+  DeformerType t;
+  t.name = "from_mesh";
+  t.summary =
+      "a deformation authored elsewhere: a deformed copy of the mesh (same vertices, same "
+      "order) or a glTF morph target, its vertex pairs in the box fitted by a smooth field "
+      "over the box (docs/from_mesh.md)";
+  ParamDecl target;
+  target.key = "target";
+  target.kind = ParamKind::File;
+  target.required = true;
+  target.meaning =
+      "the deformed copy: a mesh file with the scene mesh's vertices in the same order "
+      "(PLY, OBJ, STL, OFF, glTF, ...), a glTF whose morph target `morph` is read, or a folder "
+      "of such copies, a sequence (`frame`)";
+  target.hint = "give the deformed copy of the mesh, relative to the scene file";
+  target.field = &DeformerSpec::target;
+  target.folder_ok = true;
+  ParamDecl pins;
+  pins.key = "pins";
+  pins.kind = ParamKind::Faces;
+  pins.meaning = "box faces held at rest; default: the faces the mesh crosses";
+  pins.default_text = "the faces the mesh crosses";
+  t.params = {target,
+              number_param("morph", &DeformerSpec::morph, closed(0, 1e6), "",
+                           "the morph target of `target` to read (glTF); none: the file's own "
+                           "vertices",
+                           "", "none"),
+              number_param("weight", &DeformerSpec::weight, closed(-10, 10), "",
+                           "the morph target's weight: base + weight (target - base)", "", "1"),
+              number_param("resolution", &DeformerSpec::fit_resolution, closed(4, 256), "cells",
+                           "the fit's lattice cells along the box's longest side", "", "48"),
+              number_param("frame", &DeformerSpec::frame, closed(0, 1e6), "",
+                           "the frame of a sequence: the copy of a folder `target` (its mesh "
+                           "files in name order), or morph target `frame` of a glTF at weight "
+                           "1; a fraction blends the two copies on either side",
+                           "", "none (a folder: 0)"),
+              pins};
+  t.check = [](const JsonReader& r, const json& j, const std::string& field,
+               const DeformerSpec& d) {
+    if (j.contains("morph") && d.morph != std::floor(d.morph))
+      r.fail(child(field, "morph"), j["morph"], "must be an integer >= 0");
+    if (j.contains("weight") && !j.contains("morph"))
+      r.fail(child(field, "weight"), j["weight"], "applies to a morph target: give \"morph\"");
+    if (j.contains("frame") && j.contains("morph"))
+      r.fail(child(field, "frame"), j["frame"],
+             "picks a morph target itself (frame k is morph target k): give one of \"frame\" "
+             "and \"morph\"");
+    std::error_code ec;
+    if (j.contains("morph") && std::filesystem::is_directory(d.target, ec))
+      r.fail(child(field, "morph"), j["morph"],
+             "applies to a glTF target; the target is a folder of copies: give \"frame\"");
+    if (j.contains("resolution") && d.fit_resolution != std::floor(d.fit_resolution))
+      r.fail(child(field, "resolution"), j["resolution"], "must be an integer in [4, 256]");
+  };
+  t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h, const SimulationInput& part,
+                      std::vector<std::string>* w,
+                      Interrupter* interrupter) -> std::unique_ptr<Deformer> {
+    const FromMeshParams params = from_mesh_params(d, h, part);
+    if (part.sources.empty() || part.sources.size() != part.targets.size())
+      throw Error("target: no vertex of the mesh lies in the box: nothing to fit");
+    std::vector<PointPair> pairs(part.sources.size());
+    for (size_t i = 0; i < pairs.size(); ++i) pairs[i] = {part.sources[i], part.targets[i]};
+    (void)w;
+    return make_from_mesh(h, pairs, params, nullptr, interrupter);
+  };
+  t.examples = {{{"target", "examples/meshes/bunny.ply"}, {"resolution", 16}}};
+  return t;
+}
+
+// The registry, in the order of the docs: one function per type.
 std::vector<DeformerType> make_registry() {
-  std::vector<DeformerType> types;
-  {
-    DeformerType t;
-    t.name = "twist";
-    t.summary =
-        "rotation about an axis growing from 0 at the box's lower face to angle_deg at its "
-        "upper face (Blender's Simple Deform, mode Twist)";
-    t.params = {axis_param("the twist axis", "give one of x, y, z"),
-                number_param("angle_deg", &DeformerSpec::angle_deg, Interval{}, "degrees",
-                             "the angle at the upper face; any finite value (several turns)",
-                             "give the angle in degrees")};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_twist(h, static_cast<Axis>(d.axis), d.angle_deg);
-    };
-    t.examples = {{{"axis", "y"}, {"angle_deg", 360}}, {{"axis", "x"}, {"angle_deg", -90}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "bend";
-    t.summary =
-        "bend about an axis through the box centre, the box's lower face fixed (Blender's "
-        "Simple Deform, mode Bend)";
-    t.params = {
-        axis_param("the bend axis", "give one of x, y, z"),
-        number_param("angle_deg", &DeformerSpec::angle_deg, {-360.0, 360.0, true, true}, "degrees",
-                     "the bend angle over the box", "give the angle in degrees")};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_bend(h, static_cast<Axis>(d.axis), d.angle_deg);
-    };
-    t.examples = {{{"axis", "z"}, {"angle_deg", 90}}, {{"axis", "x"}, {"angle_deg", -200}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "taper";
-    t.summary =
-        "scale across an axis by 1 + factor t, t from 0 at the box's lower face to 1 at "
-        "its upper face (Blender's Simple Deform, mode Taper)";
-    t.params = {axis_param("the taper axis", "give one of x, y, z"),
-                number_param("factor", &DeformerSpec::factor, {-1.0, 10.0, true, false}, "",
-                             "Blender's factor: the relative change of the width at the upper "
-                             "face",
-                             "give the taper factor, e.g. 0.8")};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_taper(h, static_cast<Axis>(d.axis), d.factor);
-    };
-    t.examples = {{{"axis", "y"}, {"factor", 0.8}}, {{"axis", "z"}, {"factor", -0.6}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "stretch";
-    t.summary =
-        "stretch along an axis with the matching squeeze across it, by the square of the "
-        "coordinate in object units, as Blender does (Simple Deform, mode Stretch)";
-    t.params = {axis_param("the stretch axis", "give one of x, y, z"),
-                number_param("factor", &DeformerSpec::factor, Interval{}, "",
-                             "Blender's factor; the box's length along the axis bounds it "
-                             "(the error says how)",
-                             "give the stretch factor, e.g. 0.5")};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_stretch(h, static_cast<Axis>(d.axis), d.factor);
-    };
-    t.examples = {{{"axis", "y"}, {"factor", 0.5}}, {{"axis", "x"}, {"factor", -0.3}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "detail";
-    t.summary =
-        "a seeded vector noise displacement of at most `scale`, windowed to 0 on the box faces; "
-        "in a list it comes last and is added to the list's inverse displacement, as Correa & "
-        "Silver add textures for detail (section 4)";
-    t.params = {
-        number_param("scale", &DeformerSpec::scale, {0.0, kMaxCoordinate, false, false, true},
-                     "object units",
-                     "the largest displacement; at most 1/2 over the noise's Lipschitz bound, so "
-                     "that it never folds (the error gives the limit)",
-                     "give the detail's displacement in object units, e.g. 0.1"),
-        number_param("wavelength", &DeformerSpec::wavelength,
-                     {0.0, kMaxCoordinate, false, false, true}, "object units",
-                     "the noise's mean wavelength, also the width of the window's falloff at the "
-                     "faces; 0 = a quarter of the box's shortest side",
-                     "", "0"),
-        number_param("seed", &DeformerSpec::seed, closed(0, 4294967295.0), "",
-                     "picks the noise: a whole number", "", "1")};
-    t.check = [](const JsonReader& r, const json& j, const std::string& field,
-                 const DeformerSpec& d) {
-      if (d.seed != std::floor(d.seed))
-        r.fail(child(field, "seed"), j["seed"], "must be a whole number in [0, 4294967295]");
-    };
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      const double wavelength = d.wavelength > 0.0 ? d.wavelength : 0.5 * h.minCoeff();
-      return make_detail(h, d.scale, wavelength, static_cast<std::uint64_t>(d.seed));
-    };
-    t.examples = {{{"scale", 0.02}, {"wavelength", 0.5}, {"seed", 7}},
-                  {{"scale", 0.03}},
-                  {{"scale", 0.015}, {"wavelength", 0.3}, {"seed", 4294967295.0}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "peel";
-    t.summary =
-        "a layer of the box cut from one face and curled away about an axis (Correa & "
-        "Silver, section 5)";
-    t.cuts = true;
-    t.params = {
-        axis_param("the curl axis", "give the curl axis, one of x, y, z"),
-        from_param("the face the layer is peeled from, on another axis than `axis`"),
-        number_param("angle_deg", &DeformerSpec::angle_deg, {0.0, 180.0, true, false}, "degrees",
-                     "how far the flap curls", "give the curl angle in degrees"),
-        number_param("thickness", &DeformerSpec::thickness, kPositive, "object units",
-                     "the layer's thickness, below 2 h of the face's axis",
-                     "give the layer thickness in object units"),
-        number_param("radius", &DeformerSpec::radius, kPositive, "object units", "the curl radius",
-                     "give the curl radius in object units"),
-        number_param("hinge", &DeformerSpec::hinge, Interval{}, "object units",
-                     "where the flap starts along the peel direction, in [-h, h)", "", "0")};
-    t.check = check_from_face;
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_peel(h, static_cast<Axis>(d.axis),
-                       Face{static_cast<Axis>(d.from_axis), d.from_side}, d.angle_deg, d.thickness,
-                       d.radius, d.hinge);
-    };
-    t.examples = {
-        {{"axis", "z"}, {"from", "+y"}, {"angle_deg", 120}, {"thickness", 0.4}, {"radius", 0.6}},
-        {{"axis", "x"},
-         {"from", "-z"},
-         {"angle_deg", 60},
-         {"thickness", 0.3},
-         {"radius", 1.0},
-         {"hinge", -0.5}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "incision";
-    t.summary =
-        "a planar cut from one face, pushed open into a wedge-shaped gap (Correa & Silver, "
-        "section 5)";
-    t.cuts = true;
-    t.params = {axis_param("the normal of the cut plane",
-                           "give the normal of the cut plane, one of x, y, z"),
-                from_param("the face the cut enters through, on another axis than `axis`"),
-                number_param("depth", &DeformerSpec::depth, kPositive, "object units",
-                             "how far the cut reaches from its face, up to 2 h of that axis",
-                             "give the depth of the cut in object units"),
-                number_param("opening", &DeformerSpec::opening, kPositive, "object units",
-                             "the gap's width at the face, below 2 h of `axis`",
-                             "give the width of the gap in object units")};
-    t.check = check_from_face;
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_incision(h, static_cast<Axis>(d.axis),
-                           Face{static_cast<Axis>(d.from_axis), d.from_side}, d.depth, d.opening);
-    };
-    t.examples = {{{"axis", "x"}, {"from", "+y"}, {"depth", 1.5}, {"opening", 0.5}},
-                  {{"axis", "z"}, {"from", "-x"}, {"depth", 0.8}, {"opening", 0.3}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "box_cut";
-    t.summary =
-        "removes a sub-box of the box, optionally only a wedge of it about an axis through "
-        "the centre; moves nothing";
-    t.cuts = true;
-    ParamDecl sub_min;
-    sub_min.key = "sub_min";
-    sub_min.kind = ParamKind::Fractions;
-    sub_min.meaning = "the removed sub-box's lower corner, fractions of the box (0 = min face)";
-    sub_min.default_text = "[0, 0, 0]";
-    sub_min.field = &DeformerSpec::sub_min;
-    ParamDecl sub_max = sub_min;
-    sub_max.key = "sub_max";
-    sub_max.meaning = "its upper corner (1 = max face)";
-    sub_max.default_text = "[1, 1, 1]";
-    sub_max.field = &DeformerSpec::sub_max;
-    ParamDecl wedge;
-    wedge.key = "wedge";
-    wedge.kind = ParamKind::Group;
-    wedge.meaning = "only the wedge of the sub-box from from_deg over angle_deg about axis";
-    wedge.default_text = "none";
-    wedge.group_hint = "{\"axis\": \"y\", \"from_deg\": 0, \"angle_deg\": 90}";
-    ParamDecl wedge_axis = axis_param("the wedge's axis", "give the wedge's axis, one of x, y, z");
-    wedge_axis.field = &DeformerSpec::wedge_axis;
-    wedge.children = {
-        wedge_axis,
-        number_param("from_deg", &DeformerSpec::wedge_from_deg, Interval{}, "degrees",
-                     "where the wedge starts", "", "0"),
-        number_param("angle_deg", &DeformerSpec::wedge_angle_deg, {0.0, 180.0, true, false},
-                     "degrees", "the wedge's angle", "give the wedge's angle in degrees")};
-    t.params = {sub_min, sub_max, wedge};
-    t.check = check_sub_box;
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h,
-                std::vector<std::string>*) -> std::unique_ptr<Deformer> {
-      BoxCutParams params;
-      params.sub_min = d.sub_min;
-      params.sub_max = d.sub_max;
-      params.wedge_axis = static_cast<Axis>(d.wedge_axis);
-      params.wedge_from_deg = d.wedge_from_deg;
-      params.wedge_angle_deg = d.wedge_angle_deg;
-      return make_box_cut(h, params);
-    };
-    t.examples = {{{"sub_min", {0.5, 0.5, 0.0}}},
-                  {{"sub_min", {0, 0.3, 0}},
-                   {"sub_max", {1, 1, 0.8}},
-                   {"wedge", {{"axis", "y"}, {"from_deg", 10}, {"angle_deg", 90}}}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "groove";
-    t.summary =
-        "a round cut: removes the ring farther than radius from an axis through the centre, "
-        "within a slab of width about the centre; moves nothing";
-    t.cuts = true;
-    t.params = {axis_param("the groove's axis", "give the groove's axis, one of x, y, z"),
-                number_param("radius", &DeformerSpec::radius, kPositive, "object units",
-                             "the groove's inner radius: what lies farther from the axis goes",
-                             "give the groove's inner radius in object units"),
-                // The slab's width along the axis, held in the spec's `opening`.
-                number_param("width", &DeformerSpec::opening, kPositive, "object units",
-                             "the groove's width along the axis, up to 2 h of that axis",
-                             "give the groove's width in object units")};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>*) {
-      return make_groove(h, static_cast<Axis>(d.axis), d.radius, d.opening);
-    };
-    t.examples = {{{"axis", "y"}, {"radius", 0.6}, {"width", 0.5}},
-                  {{"axis", "x"}, {"radius", 0.8}, {"width", 1.2}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "control_points";
-    t.summary =
-        "source -> target pairs interpolated by radial basis functions (global r^3 with an "
-        "affine part, or Wendland C2 within a radius), pinned faces exact";
-    ParamDecl points;
-    points.key = "points";
-    points.kind = ParamKind::Points;
-    points.required = true;
-    points.unit = "object coordinates";
-    points.meaning =
-        "1 to 1024 pairs {\"from\": [x, y, z], \"to\": [x, y, z]}, each from in the box";
-    points.hint = "give a list of {\"from\": [x, y, z], \"to\": [x, y, z]} pairs";
-    ParamDecl pinned;
-    pinned.key = "pinned";
-    pinned.kind = ParamKind::Faces;
-    pinned.meaning = "box faces held fixed, e.g. [\"-y\"]";
-    pinned.default_text = "[]";
-    t.params = {points,
-                number_param("radius", &DeformerSpec::influence_radius,
-                             {0.0, kMaxCoordinate, false, false, true}, "object units",
-                             "each point's radius of influence; 0 = the whole box", "", "0"),
-                pinned};
-    t.make = [](const DeformerSpec& d, const Eigen::Vector3d& h, std::vector<std::string>* w) {
-      std::vector<ControlPoint> points;
-      for (const PointPair& p : d.points) points.push_back({p.source, p.target});
-      return make_control_points(h, std::move(points), d.influence_radius, d.pinned, w);
-    };
-    t.examples = {
-        {{"points", {{{"from", {0, 1.0, 0}}, {"to", {0.3, 1.2, 0}}}}}, {"pinned", {"-y"}}},
-        {{"points",
-          {{{"from", {0.5, 0.5, 0}}, {"to", {0.7, 0.4, 0.1}}},
-           {{"from", {-0.5, 0.8, 0.2}}, {"to", {-0.5, 1.0, 0.2}}}}},
-         {"radius", 1.2}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "simulation";
-    t.summary =
-        "a mass-spring body over the mesh part (Mosegaard & Sorensen's 18-neighbour grid, or "
-        "Kuhn tetrahedra as in Tejada & Ertl), run from rest under gravity, pins and drags; "
-        "its last state deforms the part (docs/simulation.md)";
-    ParamDecl model;
-    model.key = "model";
-    model.kind = ParamKind::Choice;
-    model.choices = sim_model_names();
-    model.meaning = "grid: springs to 18 neighbours, trilinear F; tets: Kuhn tetrahedra, linear F";
-    model.default_text = "grid";
-    model.field = &DeformerSpec::sim_model;
-    ParamDecl integrator = model;
-    integrator.key = "integrator";
-    integrator.choices = sim_integrator_names();
-    integrator.meaning = "how a step is taken (docs/physics.md)";
-    integrator.default_text = "implicit_euler";
-    integrator.field = &DeformerSpec::sim_integrator;
-    ParamDecl gravity;
-    gravity.key = "gravity";
-    gravity.kind = ParamKind::Direction;
-    gravity.range = closed(-1e9, 1e9);
-    gravity.unit = "object units / s^2";
-    gravity.meaning = "acceleration of gravity, object axes";
-    gravity.default_text = "[0, -9.81, 0]";
-    gravity.field = &DeformerSpec::gravity;
-    ParamDecl pins;
-    pins.key = "pins";
-    pins.kind = ParamKind::Faces;
-    pins.meaning = "box faces whose nodes are held at rest";
-    pins.default_text = "the faces the mesh crosses";
-    ParamDecl drags;
-    drags.key = "drags";
-    drags.kind = ParamKind::Drags;
-    drags.unit = "object units, s";
-    drags.meaning =
-        "nodes in a sub-box (fractions, like box_cut) moved along a path of "
-        "{\"t\", \"offset\"} keys";
-    drags.default_text = "[]";
-    t.params = {
-        model,
-        number_param("resolution", &DeformerSpec::sim_resolution, closed(2, 128), "cells",
-                     "lattice cells along the box's longest side", "", "16"),
-        number_param("margin", &DeformerSpec::sim_margin, {0.0, kMaxCoordinate, false, false, true},
-                     "object units", "how far outside the mesh the body reaches", "",
-                     "the cell diagonal"),
-        number_param("density", &DeformerSpec::density, {0.0, 1e9, true, false}, "mass / unit^3",
-                     "mass per volume (lumped on the nodes)", "", "1000"),
-        number_param("ks", &DeformerSpec::ks, {0.0, 1e9, true, false}, "force / unit",
-                     "spring stiffness (Tejada & Ertl's ks; Mosegaard & Sorensen's k is 2 ks)",
-                     "give the spring stiffness in force per object unit, e.g. 3e4"),
-        number_param("kd", &DeformerSpec::kd, closed(0, 1e9), "force s / unit",
-                     "damping of the relative velocity of each spring's two nodes", "", "0"),
-        integrator,
-        number_param("dt", &DeformerSpec::dt, {0.0, 1.0, true, false}, "s", "time step", "",
-                     "0.01"),
-        number_param("steps", &DeformerSpec::sim_steps, closed(1, 100000), "",
-                     "steps run from rest; the last state deforms the part", "", "100"),
-        gravity,
-        pins,
-        drags};
-    t.check = check_simulation;
-    t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h,
-                        const SimulationInput& part, std::vector<std::string>* w,
-                        Interrupter* interrupter) -> std::unique_ptr<Deformer> {
-      Simulation sim(simulation_params(d), h, part, w, interrupter);
-      sim.run(0, nullptr, interrupter);
-      return sim.deformer(sim.positions());
-    };
-    t.examples = {
-        {{"ks", 3e4}, {"steps", 20}, {"gravity", {0, -2, 0}}},
-        {{"model", "tets"},
-         {"ks", 1e4},
-         {"resolution", 8},
-         {"steps", 10},
-         {"pins", {"-y"}},
-         {"drags",
-          {{{"sub_min", {0, 0.9, 0}}, {"path", {{{"t", 0.1}, {"offset", {0.05, 0, 0}}}}}}}}}};
-    types.push_back(std::move(t));
-  }
-  {
-    DeformerType t;
-    t.name = "from_mesh";
-    t.summary =
-        "a deformation authored elsewhere: a deformed copy of the mesh (same vertices, same "
-        "order) or a glTF morph target, its vertex pairs in the box fitted by a smooth field "
-        "over the box (docs/from_mesh.md)";
-    ParamDecl target;
-    target.key = "target";
-    target.kind = ParamKind::File;
-    target.required = true;
-    target.meaning =
-        "the deformed copy: a mesh file with the scene mesh's vertices in the same order "
-        "(PLY, OBJ, STL, OFF, glTF, ...), a glTF whose morph target `morph` is read, or a folder "
-        "of such copies, a sequence (`frame`)";
-    target.hint = "give the deformed copy of the mesh, relative to the scene file";
-    target.field = &DeformerSpec::target;
-    target.folder_ok = true;
-    ParamDecl pins;
-    pins.key = "pins";
-    pins.kind = ParamKind::Faces;
-    pins.meaning = "box faces held at rest; default: the faces the mesh crosses";
-    pins.default_text = "the faces the mesh crosses";
-    t.params = {target,
-                number_param("morph", &DeformerSpec::morph, closed(0, 1e6), "",
-                             "the morph target of `target` to read (glTF); none: the file's own "
-                             "vertices",
-                             "", "none"),
-                number_param("weight", &DeformerSpec::weight, closed(-10, 10), "",
-                             "the morph target's weight: base + weight (target - base)", "", "1"),
-                number_param("resolution", &DeformerSpec::fit_resolution, closed(4, 256), "cells",
-                             "the fit's lattice cells along the box's longest side", "", "48"),
-                number_param("frame", &DeformerSpec::frame, closed(0, 1e6), "",
-                             "the frame of a sequence: the copy of a folder `target` (its mesh "
-                             "files in name order), or morph target `frame` of a glTF at weight "
-                             "1; a fraction blends the two copies on either side",
-                             "", "none (a folder: 0)"),
-                pins};
-    t.check = [](const JsonReader& r, const json& j, const std::string& field,
-                 const DeformerSpec& d) {
-      if (j.contains("morph") && d.morph != std::floor(d.morph))
-        r.fail(child(field, "morph"), j["morph"], "must be an integer >= 0");
-      if (j.contains("weight") && !j.contains("morph"))
-        r.fail(child(field, "weight"), j["weight"], "applies to a morph target: give \"morph\"");
-      if (j.contains("frame") && j.contains("morph"))
-        r.fail(child(field, "frame"), j["frame"],
-               "picks a morph target itself (frame k is morph target k): give one of \"frame\" "
-               "and \"morph\"");
-      std::error_code ec;
-      if (j.contains("morph") && std::filesystem::is_directory(d.target, ec))
-        r.fail(child(field, "morph"), j["morph"],
-               "applies to a glTF target; the target is a folder of copies: give \"frame\"");
-      if (j.contains("resolution") && d.fit_resolution != std::floor(d.fit_resolution))
-        r.fail(child(field, "resolution"), j["resolution"], "must be an integer in [4, 256]");
-    };
-    t.make_on_mesh = [](const DeformerSpec& d, const Eigen::Vector3d& h,
-                        const SimulationInput& part, std::vector<std::string>* w,
-                        Interrupter* interrupter) -> std::unique_ptr<Deformer> {
-      const FromMeshParams params = from_mesh_params(d, h, part);
-      if (part.sources.empty() || part.sources.size() != part.targets.size())
-        throw Error("target: no vertex of the mesh lies in the box: nothing to fit");
-      std::vector<PointPair> pairs(part.sources.size());
-      for (size_t i = 0; i < pairs.size(); ++i) pairs[i] = {part.sources[i], part.targets[i]};
-      (void)w;
-      return make_from_mesh(h, pairs, params, nullptr, interrupter);
-    };
-    t.examples = {{{"target", "examples/meshes/bunny.ply"}, {"resolution", 16}}};
-    types.push_back(std::move(t));
-  }
-  return types;
+  return {twist_type(),  bend_type(),           taper_type(),      stretch_type(),
+          detail_type(), peel_type(),           incision_type(),   box_cut_type(),
+          groove_type(), control_points_type(), simulation_type(), from_mesh_type()};
 }
 
 std::string allowed_type_list() { return deformer_type_names(); }

@@ -5,11 +5,13 @@
 #include <cmath>
 #include <limits>
 
+#include "base/clock.h"
 #include "base/error.h"
 #include "base/format.h"
 #include "base/json_reader.h"
 #include "deformers/composed.h"
 #include "deformers/registry.h"
+#include "library/bake_records.h"
 #include "library/cylindrical.h"
 #include "library/depth_cube.h"
 #include "library/implicit.h"
@@ -21,10 +23,6 @@
 namespace raywarp {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // Cache keys: every input of a bake, numbers exact.
 class Key {
@@ -53,11 +51,6 @@ std::string box_key(const Box& b) {
 }
 
 template <class T>
-std::uint64_t grid_bytes(const Grid3<T>& g) {
-  return static_cast<std::uint64_t>(g.size()) * sizeof(T);
-}
-
-template <class T>
 StageReport grid_stage(Stage stage, const Grid3<T>& g, double seconds, Source source) {
   StageReport s;
   s.stage = stage;
@@ -67,282 +60,6 @@ StageReport grid_stage(Stage stage, const Grid3<T>& g, double seconds, Source so
   s.bytes = grid_bytes(g);
   s.seconds = seconds;
   return s;
-}
-
-// Serialisation of the stages for the disk cache.
-std::vector<char> save_sdf(const DistanceGrid& g) {
-  CacheWriter w;
-  w.grid(g.grid);
-  w.number(g.background);
-  w.number(g.band_voxels);
-  w.text(g.sign_method);
-  w.integer(g.active_voxels);
-  w.integer(g.sheet_faces);
-  w.number(g.sheet_half_thickness);
-  w.number(g.sheet_area_share);
-  w.number(g.bake_seconds);
-  return w.bytes();
-}
-
-bool load_sdf(const std::vector<char>& bytes, DistanceGrid& g) {
-  CacheReader r(bytes);
-  DistanceGrid d;
-  if (!r.grid(d.grid, kMemoryBudgetBytes)) return false;
-  d.background = static_cast<float>(r.number());
-  d.band_voxels = r.number();
-  d.sign_method = r.text();
-  d.active_voxels = r.integer();
-  d.sheet_faces = r.integer();
-  d.sheet_half_thickness = r.number();
-  d.sheet_area_share = r.number();
-  d.bake_seconds = r.number();
-  if (!r.ok() || !r.at_end()) return false;
-  g = std::move(d);
-  return true;
-}
-
-void save_choice(CacheWriter& w, const ResolutionChoice& c) {
-  w.integer(c.automatic);
-  w.number(c.target);
-  w.integer(static_cast<std::int64_t>(c.budget_bytes));
-  w.integer(c.bakes);
-  w.integer(c.budget_bound);
-}
-
-ResolutionChoice load_choice(CacheReader& r) {
-  ResolutionChoice c;
-  c.automatic = r.integer() != 0;
-  c.target = r.number();
-  c.budget_bytes = static_cast<std::uint64_t>(r.integer());
-  c.bakes = static_cast<int>(r.integer());
-  c.budget_bound = r.integer() != 0;
-  return c;
-}
-
-// D with the figures measured on it, which cost as much as the bake.
-struct DeformationRecord {
-  DeformationTexture texture;
-  double lipschitz = std::numeric_limits<double>::infinity();
-  double texture_error = 0.0;
-  ResolutionChoice choice;
-  FoldReport folds;
-  InverseResidual residual;
-  AddedDetailFigures added_detail;  // texels > 0: measured (a list that adds detail)
-};
-
-std::vector<char> save_deformation(const DeformationRecord& d) {
-  CacheWriter w;
-  w.grid(d.texture.grid);
-  w.number(d.texture.bake_seconds);
-  w.number(d.lipschitz);
-  w.number(d.texture_error);
-  save_choice(w, d.choice);
-  w.number(d.folds.folded_volume);
-  w.number(d.folds.box_volume);
-  w.number(d.residual.max);
-  w.number(d.residual.mean);
-  w.integer(d.residual.texels);
-  w.integer(d.residual.over_tolerance);
-  w.number(d.residual.tolerance);
-  w.integer(d.residual.folded);
-  w.integer(d.residual.in_cut);
-  w.number(d.added_detail.difference_max);
-  w.number(d.added_detail.difference_mean);
-  w.integer(d.added_detail.texels);
-  w.number(d.added_detail.box_diagonal);
-  return w.bytes();
-}
-
-bool load_deformation(const std::vector<char>& bytes, DeformationRecord& d) {
-  CacheReader r(bytes);
-  DeformationRecord out;
-  if (!r.grid(out.texture.grid, kMemoryBudgetBytes)) return false;
-  out.texture.bake_seconds = r.number();
-  out.lipschitz = r.number();
-  out.texture_error = r.number();
-  out.choice = load_choice(r);
-  out.folds.folded_volume = r.number();
-  out.folds.box_volume = r.number();
-  out.residual.max = r.number();
-  out.residual.mean = r.number();
-  out.residual.texels = r.integer();
-  out.residual.over_tolerance = r.integer();
-  out.residual.tolerance = r.number();
-  out.residual.folded = r.integer();
-  out.residual.in_cut = r.integer();
-  out.added_detail.difference_max = r.number();
-  out.added_detail.difference_mean = r.number();
-  out.added_detail.texels = r.integer();
-  out.added_detail.box_diagonal = r.number();
-  if (!r.ok() || !r.at_end()) return false;
-  d = std::move(out);
-  return true;
-}
-
-// A with its measured error and how its layout was chosen.
-struct AlphaRecord {
-  AlphaMap map;
-  double error = 0.0;
-  ResolutionChoice choice;
-};
-
-std::vector<char> save_alpha(const AlphaRecord& a) {
-  CacheWriter w;
-  w.grid(a.map.grid);
-  w.number(a.map.bake_seconds);
-  w.number(a.error);
-  save_choice(w, a.choice);
-  return w.bytes();
-}
-
-bool load_alpha(const std::vector<char>& bytes, AlphaRecord& a) {
-  CacheReader r(bytes);
-  AlphaRecord out;
-  if (!r.grid(out.map.grid, kMemoryBudgetBytes)) return false;
-  out.map.bake_seconds = r.number();
-  out.error = r.number();
-  out.choice = load_choice(r);
-  if (!r.ok() || !r.at_end()) return false;
-  a = std::move(out);
-  return true;
-}
-
-std::vector<char> save_step_bounds(const StepBounds& b) {
-  CacheWriter w;
-  w.grid(b.bricks);
-  w.grid(b.sdf_bricks);
-  w.integer(b.brick_cells);
-  w.number(b.sdf_lipschitz);
-  w.number(b.validity_lipschitz);
-  return w.bytes();
-}
-
-bool load_step_bounds(const std::vector<char>& bytes, StepBounds& b) {
-  CacheReader r(bytes);
-  StepBounds out;
-  if (!r.grid(out.bricks, kMemoryBudgetBytes) || !r.grid(out.sdf_bricks, kMemoryBudgetBytes))
-    return false;
-  out.brick_cells = static_cast<int>(r.integer());
-  out.sdf_lipschitz = r.number();
-  out.validity_lipschitz = r.number();
-  if (!r.ok() || !r.at_end()) return false;
-  b = std::move(out);
-  return true;
-}
-
-std::uint64_t value_bytes(const DeformationRecord& d) { return grid_bytes(d.texture.grid); }
-std::uint64_t value_bytes(const DistanceGrid& g) { return grid_bytes(g.grid); }
-std::uint64_t value_bytes(const AlphaRecord& a) { return grid_bytes(a.map.grid); }
-std::uint64_t value_bytes(const StepBounds& b) {
-  return grid_bytes(b.bricks) + grid_bytes(b.sdf_bricks);
-}
-std::uint64_t value_bytes(const DepthCube& c) { return c.texture_bytes(); }
-
-// A simulation's last state (box frame) and what the run took.
-struct SimulationRecord {
-  std::vector<Eigen::Vector3d> positions;
-  long steps = 0, cg_iterations = 0, cg_capped = 0;
-  double seconds = 0.0;
-};
-
-std::vector<char> save_simulation(const SimulationRecord& s) {
-  CacheWriter w;
-  w.integer(static_cast<long>(s.positions.size()));
-  for (const Eigen::Vector3d& p : s.positions)
-    for (int i = 0; i < 3; ++i) w.number(p[i]);
-  w.integer(s.steps);
-  w.integer(s.cg_iterations);
-  w.integer(s.cg_capped);
-  w.number(s.seconds);
-  return w.bytes();
-}
-
-bool load_simulation(const std::vector<char>& bytes, SimulationRecord& s) {
-  CacheReader r(bytes);
-  SimulationRecord out;
-  const long n = r.integer();
-  if (!r.ok() || n < 0 || n > kMaxSimulationNodes) return false;
-  out.positions.resize(static_cast<size_t>(n));
-  for (Eigen::Vector3d& p : out.positions)
-    for (int i = 0; i < 3; ++i) p[i] = r.number();
-  out.steps = r.integer();
-  out.cg_iterations = r.integer();
-  out.cg_capped = r.integer();
-  out.seconds = r.number();
-  if (!r.ok() || !r.at_end()) return false;
-  for (const Eigen::Vector3d& p : out.positions)
-    if (!p.allFinite()) return false;
-  s = std::move(out);
-  return true;
-}
-
-std::uint64_t value_bytes(const SimulationRecord& s) {
-  return s.positions.size() * sizeof(Eigen::Vector3d);
-}
-
-// A from_mesh fit: the fitted lattice (box frame) and the report of the pairs and the fit.
-struct FitRecord {
-  std::vector<Eigen::Vector3d> positions;
-  FromMeshReport report;
-  Eigen::Vector3i cells = Eigen::Vector3i::Zero();
-};
-
-std::vector<char> save_fit(const FitRecord& f) {
-  CacheWriter w;
-  w.integer(static_cast<long>(f.positions.size()));
-  for (const Eigen::Vector3d& p : f.positions)
-    for (int i = 0; i < 3; ++i) w.number(p[i]);
-  const FromMeshReport& r = f.report;
-  for (long v : {r.pairs, r.file_vertices, r.mesh_vertices, r.torn, r.moved_outside,
-                 static_cast<long>(r.frames), static_cast<long>(r.turn_steps),
-                 static_cast<long>(f.cells.x()), static_cast<long>(f.cells.y()),
-                 static_cast<long>(f.cells.z())})
-    w.integer(v);
-  for (double v :
-       {r.largest_move, r.fit_max_error, r.fit_rms_error, r.seconds, r.frame, r.largest_turn_deg})
-    w.number(v);
-  return w.bytes();
-}
-
-bool load_fit(const std::vector<char>& bytes, FitRecord& f) {
-  CacheReader r(bytes);
-  FitRecord out;
-  // At most the samples of the finest lattice (from_mesh_fitted checks the count).
-  constexpr long kMaxSamples = long(kFromMeshMaxResolution + 1) * (kFromMeshMaxResolution + 1) *
-                               (kFromMeshMaxResolution + 1);
-  const long n = r.integer();
-  if (!r.ok() || n < 0 || n > kMaxSamples ||
-      static_cast<std::size_t>(n) * 3 * sizeof(double) > bytes.size())
-    return false;
-  out.positions.resize(static_cast<size_t>(n));
-  for (Eigen::Vector3d& p : out.positions)
-    for (int i = 0; i < 3; ++i) p[i] = r.number();
-  FromMeshReport& m = out.report;
-  m.pairs = r.integer();
-  m.file_vertices = r.integer();
-  m.mesh_vertices = r.integer();
-  m.torn = r.integer();
-  m.moved_outside = r.integer();
-  m.frames = static_cast<int>(r.integer());
-  const long steps = r.integer();
-  if (steps < 1 || steps > 1000000) return false;
-  m.turn_steps = static_cast<int>(steps);
-  for (int a = 0; a < 3; ++a) out.cells[a] = static_cast<int>(r.integer());
-  m.largest_move = r.number();
-  m.fit_max_error = r.number();
-  m.fit_rms_error = r.number();
-  m.seconds = r.number();
-  m.frame = r.number();
-  m.largest_turn_deg = r.number();
-  if (!r.ok() || !r.at_end() || m.pairs < 1 || !std::isfinite(m.largest_turn_deg)) return false;
-  for (const Eigen::Vector3d& p : out.positions)
-    if (!p.allFinite()) return false;
-  f = std::move(out);
-  return true;
-}
-
-std::uint64_t value_bytes(const FitRecord& f) {
-  return f.positions.size() * sizeof(Eigen::Vector3d) + sizeof(FitRecord);
 }
 
 }  // namespace
@@ -598,548 +315,646 @@ std::string target_hash(const std::string& file) {
 
 }  // namespace
 
-BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
-  if (!job.mesh) throw Error(job.where + ": no mesh");
-  const BoxSpec& spec = job.spec;
-  const Mesh& mesh = job.mesh->mesh;
-  BakedBox out;
-  BakeReport& report = out.report;
-  std::vector<std::string> notes;
-  // A simulation is built over the mesh part, after the implicit surface.
-  const bool on_mesh = needs_mesh(spec.deformer);
-  if (on_mesh && !spec.then.empty())
-    throw Error(job.where + ".then: a " + spec.deformer.type +
+// One box's bake: the stages in order, each a member function that reads what the stages
+// before it left (docs/architecture.md, "The bake pipeline"). Each stage goes through cached():
+// the session's memory, then the disk cache, then the bake.
+class BoxBake {
+ public:
+  BoxBake(BakeSession& session, const BakeJob& job, Interrupter* interrupter)
+      : session_(session),
+        job_(job),
+        spec_(job.spec),
+        mesh_(job.mesh->mesh),
+        interrupter_(interrupter),
+        on_mesh_(needs_mesh(job.spec.deformer)) {}
+
+  BakedBox run() {
+    analytic_deformer();
+    implicit_surface();
+    if (on_mesh_ && spec_.deformer.type == "from_mesh")
+      fit();
+    else if (on_mesh_)
+      simulation();
+    deformation();
+    if (out_.deformer->has_cut()) alpha();
+    texture_warnings();
+    mesh_warnings();
+    if (job_.texture_bits == 16) {
+      round_textures_to_half(tex_);
+      report_.half_precision = true;
+    }
+    if (traces_bounded(job_.sampling, tex_.has_cut, tex_.moves_nothing)) step_bounds();
+    return std::move(out_);
+  }
+
+ private:
+  template <class T, class Bake, class Save, class Load>
+  Source cached(T& value, const std::string& kind, const std::string& key, long& counter, Bake bake,
+                Save save, Load load);
+  void analytic_deformer();
+  void implicit_surface();
+  void implicit_resolution();
+  void depth_cube();
+  void distance_grid();
+  void fit();
+  void simulation();
+  void deformation_layout();
+  void deformation();
+  void alpha();
+  void texture_warnings();
+  void mesh_warnings();
+  void step_bounds();
+  SimulationInput part_distance(double bound, const TriangleBvh& bvh) const;
+
+  BakeSession& session_;
+  const BakeJob& job_;
+  const BoxSpec& spec_;
+  const Mesh& mesh_;
+  Interrupter* interrupter_;
+  const bool on_mesh_;  // a simulation or a fit, built over the mesh part after the implicit
+  BakedBox out_;
+  BakeReport& report_ = out_.report;
+  BoxTextures& tex_ = out_.textures;
+  // What the stages hand on.
+  ImplicitSpec implicit_;
+  double voxel_ = 0.0;
+  std::string sdf_key_, simulation_key_, mapping_key_, def_key_;
+  DeformationRecord record_;
+  bool automatic_ = false;  // D's layout chosen for a target error
+  bool cylindrical_d_ = false;
+  double target_ = 0.0;  // the automatic layouts' target error (units)
+  Eigen::AlignedBox3d cylinder_region_;
+  CylindricalDomain domain_;
+};
+
+// Memory, then disk, then bake; stores what it baked in both. The value lives in memory as a
+// shared_ptr<const T>, so a hit copies it into the textures once.
+template <class T, class Bake, class Save, class Load>
+Source BoxBake::cached(T& value, const std::string& kind, const std::string& key, long& counter,
+                       Bake bake, Save save, Load load) {
+  if (auto hit = session_.find(key)) {
+    value = *static_cast<const T*>(hit.get());
+    ++session_.counters_.memory_hits;
+    return Source::Memory;
+  }
+  BakeCache* disk = session_.disk_;
+  if (disk) {
+    if (auto bytes = disk->get(kind, key); bytes && load(*bytes, value)) {
+      ++session_.counters_.disk_hits;
+      session_.keep(key, std::make_shared<const T>(value), value_bytes(value));
+      return Source::Disk;
+    }
+  }
+  value = bake();  // throws Cancelled before anything is stored
+  ++counter;
+  session_.keep(key, std::make_shared<const T>(value), value_bytes(value));
+  if (disk) {
+    std::string error;
+    if (!disk->put(kind, key, save(value), &error))
+      report_.warnings.push_back({"cache_store", "the bake cache " + disk->dir().string() +
+                                                     " cannot store a " + kind + " (" + error +
+                                                     "); it will be baked again next time"});
+  }
+  return Source::Baked;
+}
+
+// An analytic deformer (or a composed list) is made from the box's spec; a simulation or a fit
+// is made by its own stage, after the implicit surface.
+void BoxBake::analytic_deformer() {
+  if (on_mesh_ && !spec_.then.empty())
+    throw Error(job_.where + ".then: a " + spec_.deformer.type +
                 " deformer must be the box's only one (compose it with nothing)");
-  if (!on_mesh) {
-    out.deformer = make_box_deformer(spec, job.where, &notes);
-    for (std::string& n : notes) report.warnings.push_back({"deformer_note", std::move(n)});
-    report.deformer = out.deformer->describe();
+  if (!on_mesh_) {
+    std::vector<std::string> notes;
+    out_.deformer = make_box_deformer(spec_, job_.where, &notes);
+    for (std::string& n : notes) report_.warnings.push_back({"deformer_note", std::move(n)});
+    report_.deformer = out_.deformer->describe();
   }
-  report.parameters = describe_spec(spec.deformer);
-  for (const DeformerSpec& d : spec.then) report.parameters += "; " + describe_spec(d);
+  report_.parameters = describe_spec(spec_.deformer);
+  for (const DeformerSpec& d : spec_.then) report_.parameters += "; " + describe_spec(d);
+}
 
-  // Memory, then disk, then bake; stores what it baked in both. The value lives in memory as a
-  // shared_ptr<const T>, so a hit copies it into the textures once.
-  auto stage = [&](auto& value, const std::string& kind, const std::string& key, long& counter,
-                   auto bake, auto save, auto load) -> Source {
-    using T = std::decay_t<decltype(value)>;
-    if (auto hit = find(key)) {
-      value = *static_cast<const T*>(hit.get());
-      ++counters_.memory_hits;
-      return Source::Memory;
-    }
-    if (disk_) {
-      if (auto bytes = disk_->get(kind, key); bytes && load(*bytes, value)) {
-        ++counters_.disk_hits;
-        keep(key, std::make_shared<const T>(value), value_bytes(value));
-        return Source::Disk;
-      }
-    }
-    value = bake();  // throws Cancelled before anything is stored
-    ++counter;
-    keep(key, std::make_shared<const T>(value), value_bytes(value));
-    if (disk_) {
-      std::string error;
-      if (!disk_->put(kind, key, save(value), &error))
-        report.warnings.push_back({"cache_store", "the bake cache " + disk_->dir().string() +
-                                                      " cannot store a " + kind + " (" + error +
-                                                      "); it will be baked again next time"});
-    }
-    return Source::Baked;
-  };
+// The implicit surface: its resolution, then the depth cube or the distance grid.
+void BoxBake::implicit_surface() {
+  tex_.box = spec_.box;
+  implicit_ = spec_.implicit;
+  implicit_resolution();
+  if (implicit_.type == "depth_cube")
+    depth_cube();
+  else
+    distance_grid();
+  voxel_ = implicit_spacing(tex_);
+  report_.voxel = voxel_;
+}
 
-  BoxTextures& tex = out.textures;
-  tex.box = spec.box;
-
-  ImplicitSpec implicit = spec.implicit;
-  if (implicit.resolution == kAutoResolution) {
+void BoxBake::implicit_resolution() {
+  if (implicit_.resolution == kAutoResolution) {
     // The probe takes milliseconds but runs on every bake: the session keeps its answer.
-    const std::string key = (Key() << "implicit resolution\nmesh" << job.mesh->hash << "\n"
-                                   << box_key(spec.box) << "\n"
-                                   << implicit.type << "budget" << implicit.max_mib)
+    const std::string key = (Key() << "implicit resolution\nmesh" << job_.mesh->hash << "\n"
+                                   << box_key(spec_.box) << "\n"
+                                   << implicit_.type << "budget" << implicit_.max_mib)
                                 .str();
-    if (auto hit = find(key)) {
-      report.implicit_choice = *static_cast<const ImplicitChoice*>(hit.get());
+    if (auto hit = session_.find(key)) {
+      report_.implicit_choice = *static_cast<const ImplicitChoice*>(hit.get());
     } else {
-      report.implicit_choice = choose_implicit_resolution(mesh, spec.box, implicit, interrupter);
-      keep(key, std::make_shared<const ImplicitChoice>(report.implicit_choice),
-           sizeof(ImplicitChoice));
+      report_.implicit_choice =
+          choose_implicit_resolution(mesh_, spec_.box, implicit_, interrupter_);
+      session_.keep(key, std::make_shared<const ImplicitChoice>(report_.implicit_choice),
+                    sizeof(ImplicitChoice));
     }
-    implicit.resolution = report.implicit_choice.resolution;
+    implicit_.resolution = report_.implicit_choice.resolution;
   }
-  report.implicit_choice.resolution = implicit.resolution;
+  report_.implicit_choice.resolution = implicit_.resolution;
   // A thick shell reads f down to tau below the surface (eq. 7): the narrow band, beyond which
   // the grid holds only +-background, must reach past tau.
-  if (out.deformer && out.deformer->has_cut() && spec.cut_mode == CutMode::ThickShell &&
-      implicit.type == "sdf") {
-    const double voxel = 2.0 * spec.box.half_extents.maxCoeff() / implicit.resolution;
-    const double needed = std::ceil(spec.shell_thickness / voxel) + 2.0;
-    if (needed > implicit.band_voxels) {
-      report.band_widened_from = implicit.band_voxels;
-      implicit.band_voxels = needed;
+  if (out_.deformer && out_.deformer->has_cut() && spec_.cut_mode == CutMode::ThickShell &&
+      implicit_.type == "sdf") {
+    const double voxel = 2.0 * spec_.box.half_extents.maxCoeff() / implicit_.resolution;
+    const double needed = std::ceil(spec_.shell_thickness / voxel) + 2.0;
+    if (needed > implicit_.band_voxels) {
+      report_.band_widened_from = implicit_.band_voxels;
+      implicit_.band_voxels = needed;
     }
   }
-  std::string sdf_key;
-  if (implicit.type == "depth_cube") {
-    const std::string key = (Key() << "depth cube\nmesh" << job.mesh->hash << "\n"
-                                   << box_key(spec.box) << "\nresolution" << implicit.resolution)
-                                .str();
-    // Kept in memory only: the six maps bake in milliseconds (docs/depth_cube.md).
-    Source source = Source::Baked;
-    if (auto hit = find(key)) {
-      tex.depth_cube = *static_cast<const DepthCube*>(hit.get());
-      ++counters_.memory_hits;
-      source = Source::Memory;
-    } else {
-      tex.depth_cube = bake_depth_cube(mesh, spec.box, implicit.resolution, interrupter);
-      ++counters_.depth_cube;
-      keep(key, std::make_shared<const DepthCube>(tex.depth_cube), value_bytes(tex.depth_cube));
-    }
-    tex.uses_depth_cube = true;
-    StageReport s;
-    s.stage = Stage::DepthCube;
-    s.source = source;
-    s.resolution = Eigen::Vector3i(tex.depth_cube.maps[0].nu, tex.depth_cube.maps[0].nv, 6);
-    s.spacing = Eigen::Vector3d::Constant(tex.depth_cube.spacing);
-    s.bytes = tex.depth_cube.texture_bytes();
-    s.seconds = tex.depth_cube.bake_seconds;
-    report.stages.push_back(s);
-  } else {
-    auto bake_grid = [&] {
-      sdf_key = (Key() << "distance grid\nmesh" << job.mesh->hash << "\n"
-                       << box_key(spec.box) << "\nresolution" << implicit.resolution << "band"
-                       << implicit.band_voxels << "margin" << implicit.margin_voxels << "sheets"
-                       << kSheetHalfVoxels)
-                    .str();
-      return stage(
-          tex.sdf, "sdf", sdf_key, counters_.distance_grid,
-          [&] {
-            return bake_distance_grid(mesh, spec.box, implicit, kMemoryBudgetBytes, interrupter);
-          },
-          save_sdf, load_sdf);
-    };
-    Source source = bake_grid();
-    // A sheet's shell is as thick as the voxel makes it: an automatic grid with sheets in it is
-    // baked again as fine as they ask (kSheetAutoResolution), unless they are stray faces (a
-    // scan's loose fragments).
-    if (ImplicitChoice& c = report.implicit_choice;
-        c.automatic && tex.sdf.sheet_area_share >= kSheetAreaShare) {
-      const int finer = sheet_resolution(spec.box, implicit);
-      if (finer > implicit.resolution) {
-        c.sheets_raised_from = implicit.resolution;
-        c.wanted = std::max(c.wanted, kSheetAutoResolution);
-        c.budget_bound = finer < c.wanted;
-        c.resolution = implicit.resolution = finer;
-        source = bake_grid();
-      }
-    }
-    report.stages.push_back(
-        grid_stage(Stage::DistanceGrid, tex.sdf.grid, tex.sdf.bake_seconds, source));
-    report.band_voxels = tex.sdf.band_voxels;
-    report.active_voxels = tex.sdf.active_voxels;
-    report.sign_method = tex.sdf.sign_method;
-  }
-  const double voxel = implicit_spacing(tex);
-  report.voxel = voxel;
+}
 
-  std::string simulation_key;
-  if (on_mesh && spec.deformer.type == "from_mesh") {
-    // A deformed copy of the mesh: the vertex pairs inside the box, fitted by the deformer. The
-    // keys name the bytes of the copies the frame reads (and a glTF's buffers); the fitted
-    // lattice is a stage of its own, so a cached fit neither reads the copy nor fits again.
-    const DeformerSpec& d = spec.deformer;
-    const int morph = d.morph < 0 ? -1 : static_cast<int>(d.morph);
-    auto field_error = [&](const Error& e) {
-      const std::string what = e.what();
-      const bool names_field = what.rfind("frame", 0) == 0 || what.rfind("morph", 0) == 0;
-      return Error(job.where + ".deformer." + (names_field ? "" : "target: ") + what);
-    };
-    std::vector<std::string> files;
-    try {
-      files = deformed_copy_files(d.target, d.frame);
-    } catch (const Error& e) {
-      throw field_error(e);
-    }
-    simulation_key = "\nfrom mesh" + job.mesh->hash + " target";
-    for (const std::string& file : files) simulation_key += " " + target_hash(file);
-    const std::string fit_key =
-        (Key() << "from mesh fit, turns in steps\nmesh" << job.mesh->hash << "\n"
-               << box_key(spec.box) << "\n"
-               << simulation_key << "\n"
-               << deformer_key(d))
-            .str();
-    const double cell = 2.0 * spec.box.half_extents.maxCoeff() / d.fit_resolution;
-    const double bound = 2.0 * std::sqrt(3.0) * cell;
-    const TriangleBvh bvh(mesh);
-    SimulationInput part;
-    part.signed_distance = [&](const Eigen::Vector3d& q) {
-      const double dist = bvh.nearest_distance(spec.box.to_object(q), bound);
-      return implicit_value(tex, q) > 0.0 ? dist : -dist;
-    };
-    const FromMeshParams params = from_mesh_params(d, spec.box.half_extents, part);
-    std::unique_ptr<Deformer> fitted;
-    FitRecord fit;
-    const Source source = stage(
-        fit, "from mesh fit", fit_key, counters_.fit,
+// Kept in memory only: the six maps bake in milliseconds (docs/depth_cube.md).
+void BoxBake::depth_cube() {
+  const std::string key = (Key() << "depth cube\nmesh" << job_.mesh->hash << "\n"
+                                 << box_key(spec_.box) << "\nresolution" << implicit_.resolution)
+                              .str();
+  Source source = Source::Baked;
+  if (auto hit = session_.find(key)) {
+    tex_.depth_cube = *static_cast<const DepthCube*>(hit.get());
+    ++session_.counters_.memory_hits;
+    source = Source::Memory;
+  } else {
+    tex_.depth_cube = bake_depth_cube(mesh_, spec_.box, implicit_.resolution, interrupter_);
+    ++session_.counters_.depth_cube;
+    session_.keep(key, std::make_shared<const DepthCube>(tex_.depth_cube),
+                  value_bytes(tex_.depth_cube));
+  }
+  tex_.uses_depth_cube = true;
+  StageReport s;
+  s.stage = Stage::DepthCube;
+  s.source = source;
+  s.resolution = Eigen::Vector3i(tex_.depth_cube.maps[0].nu, tex_.depth_cube.maps[0].nv, 6);
+  s.spacing = Eigen::Vector3d::Constant(tex_.depth_cube.spacing);
+  s.bytes = tex_.depth_cube.texture_bytes();
+  s.seconds = tex_.depth_cube.bake_seconds;
+  report_.stages.push_back(s);
+}
+
+void BoxBake::distance_grid() {
+  auto bake_grid = [&] {
+    sdf_key_ = (Key() << "distance grid\nmesh" << job_.mesh->hash << "\n"
+                      << box_key(spec_.box) << "\nresolution" << implicit_.resolution << "band"
+                      << implicit_.band_voxels << "margin" << implicit_.margin_voxels << "sheets"
+                      << kSheetHalfVoxels)
+                   .str();
+    return cached(
+        tex_.sdf, "sdf", sdf_key_, session_.counters_.distance_grid,
         [&] {
-          const auto started = std::chrono::steady_clock::now();
-          const DeformedCopy copy = [&] {
-            try {
-              return read_deformed_copy(d.target, morph, d.weight, d.frame);
-            } catch (const Error& e) {
-              throw field_error(e);
-            }
-          }();
-          const MeshPairs pairs = [&] {
-            try {
-              return mesh_pairs(job.mesh->file.string(), mesh, copy.vertices, copy.name, spec.box);
-            } catch (const Error& e) {
-              throw Error(job.where + ".deformer.target: " + e.what());
-            }
-          }();
-          if (pairs.sources.empty())
-            throw Error(job.where +
-                        ".deformer.target: no vertex of the mesh lies in the box: nothing to fit");
-          std::vector<PointPair> point_pairs(pairs.sources.size());
-          for (size_t i = 0; i < point_pairs.size(); ++i)
-            point_pairs[i] = {pairs.sources[i], pairs.targets[i]};
-          FitRecord r;
-          FromMeshFit figures;
-          try {
-            fitted = make_from_mesh(spec.box.half_extents, point_pairs, params, &figures,
-                                    interrupter, &r.positions);
-          } catch (const Error& e) {
-            throw Error(job.where + ".deformer: " + e.what());
-          }
-          FromMeshReport& fm = r.report;
-          fm.pairs = static_cast<long>(pairs.sources.size());
-          fm.frames = copy.frames;
-          fm.frame = std::max(d.frame, 0.0);
-          fm.file_vertices = pairs.file_vertices;
-          fm.mesh_vertices = pairs.mesh_vertices;
-          fm.torn = pairs.torn;
-          fm.largest_move = pairs.largest_move;
-          fm.moved_outside = pairs.moved_outside;
-          fm.fit_max_error = figures.max_error;
-          fm.fit_rms_error = figures.rms_error;
-          fm.largest_turn_deg = figures.largest_turn_deg;
-          fm.turn_steps = figures.steps;
-          fm.seconds = seconds_since(started);
-          r.cells = figures.cells;
-          return r;
+          return bake_distance_grid(mesh_, spec_.box, implicit_, kMemoryBudgetBytes, interrupter_);
         },
-        save_fit, load_fit);
-    if (!fitted) {
-      try {
-        fitted = from_mesh_fitted(spec.box.half_extents, params, fit.positions, fit.report.pairs,
-                                  interrupter);
-      } catch (const Error& e) {
-        throw Error(job.where + ": the cached from_mesh fit does not fit the box: " + e.what());
-      }
+        save_sdf, load_sdf);
+  };
+  Source source = bake_grid();
+  // A sheet's shell is as thick as the voxel makes it: an automatic grid with sheets in it is
+  // baked again as fine as they ask (kSheetAutoResolution), unless they are stray faces (a
+  // scan's loose fragments).
+  if (ImplicitChoice& c = report_.implicit_choice;
+      c.automatic && tex_.sdf.sheet_area_share >= kSheetAreaShare) {
+    const int finer = sheet_resolution(spec_.box, implicit_);
+    if (finer > implicit_.resolution) {
+      c.sheets_raised_from = implicit_.resolution;
+      c.wanted = std::max(c.wanted, kSheetAutoResolution);
+      c.budget_bound = finer < c.wanted;
+      c.resolution = implicit_.resolution = finer;
+      source = bake_grid();
     }
-    out.deformer = std::move(fitted);
-    report.deformer = out.deformer->describe();
-    report.from_mesh = fit.report;
-    StageReport s;
-    s.stage = Stage::Fit;
-    s.source = source;
-    s.resolution = fit.cells;
-    s.spacing = (2.0 * spec.box.half_extents).cwiseQuotient(fit.cells.cast<double>().cwiseMax(1.0));
-    s.bytes = value_bytes(fit);
-    s.seconds = fit.report.seconds;
-    report.stages.push_back(s);
-    const FromMeshReport& fm = fit.report;
-    if (fm.torn > 0)
-      report.warnings.push_back(
-          {"torn_target", std::to_string(fm.torn) +
-                              " vertices the mesh joins are pulled apart by the target (it tears "
-                              "the surface there): each is moved to the mean of its copies"});
-    if (fm.moved_outside > 0)
-      report.warnings.push_back(
-          {"target_outside_box",
-           std::to_string(fm.moved_outside) +
-               " vertices outside the box move in the target: they are drawn at rest; grow the "
-               "box to hold the whole deformation"});
-  } else if (on_mesh) {
-    const SimulationParams params = simulation_params(spec.deformer);
-    auto key_for = [&](const DeformerSpec& d) {
-      return (Key() << "simulation\nmesh" << job.mesh->hash << "\n"
-                    << box_key(spec.box) << "\nimplicit"
-                    << (sdf_key.empty() ? "depth cube " + std::to_string(implicit.resolution)
-                                        : sdf_key)
-                    << "\n"
-                    << deformer_key(d))
+  }
+  report_.stages.push_back(
+      grid_stage(Stage::DistanceGrid, tex_.sdf.grid, tex_.sdf.bake_seconds, source));
+  report_.band_voxels = tex_.sdf.band_voxels;
+  report_.active_voxels = tex_.sdf.active_voxels;
+  report_.sign_method = tex_.sdf.sign_method;
+}
+
+// The part's signed distance for a fit or a simulation: exact, from the triangles, with the
+// implicit surface's sign. Only a band near the surface matters; farther answers stop at `bound`.
+SimulationInput BoxBake::part_distance(double bound, const TriangleBvh& bvh) const {
+  SimulationInput part;
+  part.signed_distance = [this, bound, &bvh](const Eigen::Vector3d& q) {
+    const double d = bvh.nearest_distance(spec_.box.to_object(q), bound);
+    return implicit_value(tex_, q) > 0.0 ? d : -d;
+  };
+  return part;
+}
+
+// A deformed copy of the mesh: the vertex pairs inside the box, fitted by the deformer. The keys
+// name the bytes of the copies the frame reads (and a glTF's buffers); the fitted lattice is a
+// stage of its own, so a cached fit neither reads the copy nor fits again.
+void BoxBake::fit() {
+  const DeformerSpec& d = spec_.deformer;
+  const int morph = d.morph < 0 ? -1 : static_cast<int>(d.morph);
+  auto field_error = [&](const Error& e) {
+    const std::string what = e.what();
+    const bool names_field = what.rfind("frame", 0) == 0 || what.rfind("morph", 0) == 0;
+    return Error(job_.where + ".deformer." + (names_field ? "" : "target: ") + what);
+  };
+  std::vector<std::string> files;
+  try {
+    files = deformed_copy_files(d.target, d.frame);
+  } catch (const Error& e) {
+    throw field_error(e);
+  }
+  simulation_key_ = "\nfrom mesh" + job_.mesh->hash + " target";
+  for (const std::string& file : files) {
+    simulation_key_ += ' ';
+    simulation_key_ += target_hash(file);
+  }
+  const std::string fit_key =
+      (Key() << "from mesh fit, turns in steps\nmesh" << job_.mesh->hash << "\n"
+             << box_key(spec_.box) << "\n"
+             << simulation_key_ << "\n"
+             << deformer_key(d))
           .str();
-    };
-    simulation_key = key_for(spec.deformer);
-    // The part's signed distance: exact, from the triangles, with the implicit surface's sign.
-    // Only the margin's band matters; farther answers stop at a bound.
-    const double cell = 2.0 * spec.box.half_extents.maxCoeff() / params.resolution;
-    const double bound = 2.0 * std::max(params.margin, std::sqrt(3.0) * cell) + cell;
-    const TriangleBvh bvh(mesh);
-    SimulationInput part;
-    part.signed_distance = [&](const Eigen::Vector3d& q) {
-      const double d = bvh.nearest_distance(spec.box.to_object(q), bound);
-      return implicit_value(tex, q) > 0.0 ? d : -d;
-    };
-    std::vector<std::string> sim_notes;
-    const auto started = std::chrono::steady_clock::now();
-    Simulation sim = [&] {
-      try {
-        return Simulation(params, spec.box.half_extents, part, &sim_notes, interrupter);
-      } catch (const Error& e) {
-        throw Error(job.where + ".deformer." + e.what());
-      }
-    }();
-    SimulationRecord state;
-    const Source source = stage(
-        state, "simulation", simulation_key, counters_.simulation,
-        [&] {
-          // Every keep_every-th state is stored under its own step count (memory and disk), so
-          // a sequence of bakes at those counts runs the simulation once.
-          auto keep_state = [&](long step, const std::vector<Eigen::Vector3d>& positions) {
-            if (step == params.steps) return;  // the stage stores it
-            DeformerSpec at = spec.deformer;
-            at.sim_steps = static_cast<double>(step);
-            SimulationRecord r;
-            r.positions = positions;
-            r.steps = step;
-            r.cg_iterations = sim.stats().cg_iterations;
-            r.cg_capped = sim.stats().cg_capped;
-            r.seconds = seconds_since(started);
-            const std::string key = key_for(at);
-            keep(key, std::make_shared<const SimulationRecord>(r), value_bytes(r));
-            if (disk_) disk_->put("simulation", key, save_simulation(r), nullptr);
-          };
+  const double cell = 2.0 * spec_.box.half_extents.maxCoeff() / d.fit_resolution;
+  const TriangleBvh bvh(mesh_);
+  const SimulationInput part = part_distance(2.0 * std::sqrt(3.0) * cell, bvh);
+  const FromMeshParams params = from_mesh_params(d, spec_.box.half_extents, part);
+  std::unique_ptr<Deformer> fitted;
+  FitRecord fit;
+  const Source source = cached(
+      fit, "from mesh fit", fit_key, session_.counters_.fit,
+      [&] {
+        const auto started = std::chrono::steady_clock::now();
+        const DeformedCopy copy = [&] {
           try {
-            sim.run(job.keep_every, job.keep_every > 0 ? Simulation::Keep(keep_state) : nullptr,
-                    interrupter);
+            return read_deformed_copy(d.target, morph, d.weight, d.frame);
           } catch (const Error& e) {
-            throw Error(job.where + ".deformer: " + e.what());
+            throw field_error(e);
           }
+        }();
+        const MeshPairs pairs = [&] {
+          try {
+            return mesh_pairs(job_.mesh->file.string(), mesh_, copy.vertices, copy.name, spec_.box);
+          } catch (const Error& e) {
+            throw Error(job_.where + ".deformer.target: " + e.what());
+          }
+        }();
+        if (pairs.sources.empty())
+          throw Error(job_.where +
+                      ".deformer.target: no vertex of the mesh lies in the box: nothing to fit");
+        std::vector<PointPair> point_pairs(pairs.sources.size());
+        for (size_t i = 0; i < point_pairs.size(); ++i)
+          point_pairs[i] = {pairs.sources[i], pairs.targets[i]};
+        FitRecord r;
+        FromMeshFit figures;
+        try {
+          fitted = make_from_mesh(spec_.box.half_extents, point_pairs, params, &figures,
+                                  interrupter_, &r.positions);
+        } catch (const Error& e) {
+          throw Error(job_.where + ".deformer: " + e.what());
+        }
+        FromMeshReport& fm = r.report;
+        fm.pairs = static_cast<long>(pairs.sources.size());
+        fm.frames = copy.frames;
+        fm.frame = std::max(d.frame, 0.0);
+        fm.file_vertices = pairs.file_vertices;
+        fm.mesh_vertices = pairs.mesh_vertices;
+        fm.torn = pairs.torn;
+        fm.largest_move = pairs.largest_move;
+        fm.moved_outside = pairs.moved_outside;
+        fm.fit_max_error = figures.max_error;
+        fm.fit_rms_error = figures.rms_error;
+        fm.largest_turn_deg = figures.largest_turn_deg;
+        fm.turn_steps = figures.steps;
+        fm.seconds = seconds_since(started);
+        r.cells = figures.cells;
+        return r;
+      },
+      save_fit, load_fit);
+  if (!fitted) {
+    try {
+      fitted = from_mesh_fitted(spec_.box.half_extents, params, fit.positions, fit.report.pairs,
+                                interrupter_);
+    } catch (const Error& e) {
+      throw Error(job_.where + ": the cached from_mesh fit does not fit the box: " + e.what());
+    }
+  }
+  out_.deformer = std::move(fitted);
+  report_.deformer = out_.deformer->describe();
+  report_.from_mesh = fit.report;
+  StageReport s;
+  s.stage = Stage::Fit;
+  s.source = source;
+  s.resolution = fit.cells;
+  s.spacing = (2.0 * spec_.box.half_extents).cwiseQuotient(fit.cells.cast<double>().cwiseMax(1.0));
+  s.bytes = value_bytes(fit);
+  s.seconds = fit.report.seconds;
+  report_.stages.push_back(s);
+  const FromMeshReport& fm = fit.report;
+  if (fm.torn > 0)
+    report_.warnings.push_back(
+        {"torn_target", std::to_string(fm.torn) +
+                            " vertices the mesh joins are pulled apart by the target (it tears "
+                            "the surface there): each is moved to the mean of its copies"});
+  if (fm.moved_outside > 0)
+    report_.warnings.push_back(
+        {"target_outside_box",
+         std::to_string(fm.moved_outside) +
+             " vertices outside the box move in the target: they are drawn at rest; grow the "
+             "box to hold the whole deformation"});
+}
+
+void BoxBake::simulation() {
+  const SimulationParams params = simulation_params(spec_.deformer);
+  auto key_for = [&](const DeformerSpec& d) {
+    return (Key() << "simulation\nmesh" << job_.mesh->hash << "\n"
+                  << box_key(spec_.box) << "\nimplicit"
+                  << (sdf_key_.empty() ? "depth cube " + std::to_string(implicit_.resolution)
+                                       : sdf_key_)
+                  << "\n"
+                  << deformer_key(d))
+        .str();
+  };
+  simulation_key_ = key_for(spec_.deformer);
+  // Only the margin's band matters.
+  const double cell = 2.0 * spec_.box.half_extents.maxCoeff() / params.resolution;
+  const double bound = 2.0 * std::max(params.margin, std::sqrt(3.0) * cell) + cell;
+  const TriangleBvh bvh(mesh_);
+  const SimulationInput part = part_distance(bound, bvh);
+  std::vector<std::string> sim_notes;
+  const auto started = std::chrono::steady_clock::now();
+  Simulation sim = [&] {
+    try {
+      return Simulation(params, spec_.box.half_extents, part, &sim_notes, interrupter_);
+    } catch (const Error& e) {
+      throw Error(job_.where + ".deformer." + e.what());
+    }
+  }();
+  SimulationRecord state;
+  const Source source = cached(
+      state, "simulation", simulation_key_, session_.counters_.simulation,
+      [&] {
+        // Every keep_every-th state is stored under its own step count (memory and disk), so
+        // a sequence of bakes at those counts runs the simulation once.
+        auto keep_state = [&](long step, const std::vector<Eigen::Vector3d>& positions) {
+          if (step == params.steps) return;  // the stage stores it
+          DeformerSpec at = spec_.deformer;
+          at.sim_steps = static_cast<double>(step);
           SimulationRecord r;
-          r.positions = sim.positions();
-          r.steps = sim.stats().steps;
+          r.positions = positions;
+          r.steps = step;
           r.cg_iterations = sim.stats().cg_iterations;
           r.cg_capped = sim.stats().cg_capped;
           r.seconds = seconds_since(started);
-          return r;
-        },
-        save_simulation, load_simulation);
-    if (state.positions.size() != sim.rest().size())
-      throw Error(job.where + ": the cached simulation state does not fit the body");
-    out.deformer = sim.deformer(state.positions);
-    for (std::string& n : sim_notes) report.warnings.push_back({"deformer_note", std::move(n)});
-    report.deformer = out.deformer->describe();
-    const SimulationStats& st = sim.stats();
-    report.simulation =
-        SimulationReport{st,
-                         std::make_shared<const SimulationBody>(sim.body()),
-                         std::make_shared<const std::vector<Eigen::Vector3d>>(state.positions),
-                         state.steps,
-                         state.cg_iterations,
-                         state.cg_capped};
-    StageReport s;
-    s.stage = Stage::Simulation;
-    s.source = source;
-    s.resolution = st.cells;
-    s.spacing = st.spacing;
-    s.bytes = value_bytes(state);
-    s.seconds = state.seconds;
-    report.stages.push_back(s);
-    if (state.cg_capped > 0)
-      report.warnings.push_back(
-          {"solver_cap", std::to_string(state.cg_capped) + " of " + std::to_string(state.steps) +
-                             " implicit Euler solves stopped at the CG iteration cap above their "
-                             "tolerance: the state is less accurate than asked (lower dt)"});
-  }
+          const std::string key = key_for(at);
+          session_.keep(key, std::make_shared<const SimulationRecord>(r), value_bytes(r));
+          if (session_.disk_) session_.disk_->put("simulation", key, save_simulation(r), nullptr);
+        };
+        try {
+          sim.run(job_.keep_every, job_.keep_every > 0 ? Simulation::Keep(keep_state) : nullptr,
+                  interrupter_);
+        } catch (const Error& e) {
+          throw Error(job_.where + ".deformer: " + e.what());
+        }
+        SimulationRecord r;
+        r.positions = sim.positions();
+        r.steps = sim.stats().steps;
+        r.cg_iterations = sim.stats().cg_iterations;
+        r.cg_capped = sim.stats().cg_capped;
+        r.seconds = seconds_since(started);
+        return r;
+      },
+      save_simulation, load_simulation);
+  if (state.positions.size() != sim.rest().size())
+    throw Error(job_.where + ": the cached simulation state does not fit the body");
+  out_.deformer = sim.deformer(state.positions);
+  for (std::string& n : sim_notes) report_.warnings.push_back({"deformer_note", std::move(n)});
+  report_.deformer = out_.deformer->describe();
+  const SimulationStats& st = sim.stats();
+  report_.simulation =
+      SimulationReport{st,
+                       std::make_shared<const SimulationBody>(sim.body()),
+                       std::make_shared<const std::vector<Eigen::Vector3d>>(state.positions),
+                       state.steps,
+                       state.cg_iterations,
+                       state.cg_capped};
+  StageReport s;
+  s.stage = Stage::Simulation;
+  s.source = source;
+  s.resolution = st.cells;
+  s.spacing = st.spacing;
+  s.bytes = value_bytes(state);
+  s.seconds = state.seconds;
+  report_.stages.push_back(s);
+  if (state.cg_capped > 0)
+    report_.warnings.push_back(
+        {"solver_cap", std::to_string(state.cg_capped) + " of " + std::to_string(state.steps) +
+                           " implicit Euler solves stopped at the CG iteration cap above their "
+                           "tolerance: the state is less accurate than asked (lower dt)"});
+}
 
-  tex.moves_nothing = out.deformer->moves_nothing();
-  report.moves_nothing = tex.moves_nothing;
-  // A deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
-  // bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
-  const bool automatic = !tex.moves_nothing && spec.deformation_resolution == kAutoResolution;
-  const int resolution = tex.moves_nothing ? 2 : spec.deformation_resolution;
-  const double target = kAutoErrorVoxels * voxel;
-  const auto budget = static_cast<std::uint64_t>(spec.deformation_max_mib * double(1 << 20));
-  const bool centred = job.centre_on_lower_faces && !tex.moves_nothing;
-  // A cylindrical texture (library/cylindrical.h) covers the deformed box grown by two voxels.
-  const MappingSpec& mapping = spec.mapping;
-  const bool cylindrical_d = mapping.cylindrical && !tex.moves_nothing;
-  if (mapping.cylindrical && job.centre_on_lower_faces)
-    throw Error(job.where +
+// D's layout and its cache key: the region it covers (a cylindrical texture, library/cylindrical.h,
+// covers the deformed box grown by two voxels), and for "auto" its target error and budget.
+void BoxBake::deformation_layout() {
+  tex_.moves_nothing = out_.deformer->moves_nothing();
+  report_.moves_nothing = tex_.moves_nothing;
+  automatic_ = !tex_.moves_nothing && spec_.deformation_resolution == kAutoResolution;
+  target_ = kAutoErrorVoxels * voxel_;
+  const MappingSpec& mapping = spec_.mapping;
+  cylindrical_d_ = mapping.cylindrical && !tex_.moves_nothing;
+  if (mapping.cylindrical && job_.centre_on_lower_faces)
+    throw Error(job_.where +
                 ".mapping: a cylindrical texture is not read through a texture map M "
                 "(the animation re-bakes every frame instead)");
-  const Eigen::AlignedBox3d cylinder_region = [&] {
-    Eigen::AlignedBox3d r = deformed_bounds(*out.deformer, spec.box.half_extents, 2.0 * voxel);
-    if (tex.moves_nothing)
-      r.extend(Eigen::AlignedBox3d(
-          -spec.box.half_extents - Eigen::Vector3d::Constant(kCapVoxels * voxel),
-          spec.box.half_extents + Eigen::Vector3d::Constant(kCapVoxels * voxel)));
-    return r;
-  }();
-  const CylindricalDomain domain =
-      cylindrical_domain(cylinder_region, mapping.axis, spec.box.half_extents);
+  cylinder_region_ = deformed_bounds(*out_.deformer, spec_.box.half_extents, 2.0 * voxel_);
+  if (tex_.moves_nothing)
+    cylinder_region_.extend(Eigen::AlignedBox3d(
+        -spec_.box.half_extents - Eigen::Vector3d::Constant(kCapVoxels * voxel_),
+        spec_.box.half_extents + Eigen::Vector3d::Constant(kCapVoxels * voxel_)));
+  domain_ = cylindrical_domain(cylinder_region_, mapping.axis, spec_.box.half_extents);
   Key mapping_key;
   if (mapping.cylindrical)
     mapping_key << "cylindrical about" << mapping.axis << "angle texels" << mapping.angle_texels
                 << "floor" << kAutoCylindricalFloor[0] << kAutoCylindricalFloor[1]
-                << kAutoCylindricalFloor[2] << "domain" << domain.radius << domain.low
-                << domain.high << "faces" << domain.faces << domain.face_low << domain.face_high;
+                << kAutoCylindricalFloor[2] << "domain" << domain_.radius << domain_.low
+                << domain_.high << "faces" << domain_.faces << domain_.face_low
+                << domain_.face_high;
+  mapping_key_ = mapping_key.str();
+  const auto budget = static_cast<std::uint64_t>(spec_.deformation_max_mib * double(1 << 20));
   Key layout;
-  if (automatic)
-    layout << "auto, error" << target << "budget" << double(budget) << "floor"
+  if (automatic_)
+    layout << "auto, error" << target_ << "budget" << double(budget) << "floor"
            << kAutoFloorResolution;
   else
-    layout << resolution;
-  const std::string def_key =
-      (Key() << "deformation\n"
-             << deformer_key(spec) << simulation_key << "\nresolution" << layout.str()
-             << (job.centre_on_lower_faces ? "centred on the lower faces" : "")
-             << "residual tolerance" << kResidualVoxels * voxel
-             << (cylindrical_d ? mapping_key.str() : std::string()))
-          .str();
-  DeformationRecord record;
-  const Source def_source = stage(
-      record, "deformation", def_key, counters_.deformation,
+    layout << (tex_.moves_nothing ? 2 : spec_.deformation_resolution);
+  def_key_ = (Key() << "deformation\n"
+                    << deformer_key(spec_) << simulation_key_ << "\nresolution" << layout.str()
+                    << (job_.centre_on_lower_faces ? "centred on the lower faces" : "")
+                    << "residual tolerance" << kResidualVoxels * voxel_
+                    << (cylindrical_d_ ? mapping_key_ : std::string()))
+                 .str();
+}
+
+// D and the figures measured on it: its error, Lipschitz bound, inverse residual and folds. A
+// deformer that moves nothing needs no displacement: a minimal texture keeps the shader's
+// bindings uniform, and rays are cast over the box grown by kCapVoxels voxels.
+void BoxBake::deformation() {
+  deformation_layout();
+  const int resolution = tex_.moves_nothing ? 2 : spec_.deformation_resolution;
+  const auto budget = static_cast<std::uint64_t>(spec_.deformation_max_mib * double(1 << 20));
+  const bool centred = job_.centre_on_lower_faces && !tex_.moves_nothing;
+  const MappingSpec& mapping = spec_.mapping;
+  const Source source = cached(
+      record_, "deformation", def_key_, session_.counters_.deformation,
       [&] {
         DeformationRecord r;
-        const Deformer& d = *out.deformer;
-        const Eigen::Vector3d& h = spec.box.half_extents;
-        if (cylindrical_d) {
+        const Deformer& d = *out_.deformer;
+        const Eigen::Vector3d& h = spec_.box.half_extents;
+        if (cylindrical_d_) {
           const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
                                       kAutoCylindricalFloor[2]);
-          if (automatic) {
+          if (automatic_) {
             AutoDeformation a = bake_cylindrical_deformation_auto(
-                d, h, mapping.axis, domain, target, budget, floor, interrupter);
+                d, h, mapping.axis, domain_, target_, budget, floor, interrupter_);
             r.texture = std::move(a.texture);
             r.texture_error = a.error;
             r.choice = a.choice;
           } else {
             const Eigen::Vector3i counts(mapping.angle_texels, resolution, resolution);
-            r.texture = bake_cylindrical_deformation(d, mapping.axis, domain, counts, interrupter);
+            r.texture =
+                bake_cylindrical_deformation(d, mapping.axis, domain_, counts, interrupter_);
             r.texture_error =
-                cylindrical_deformation_error(d, h, r.texture, mapping.axis, interrupter);
+                cylindrical_deformation_error(d, h, r.texture, mapping.axis, interrupter_);
           }
           // No Lipschitz bound is measured: cylindrical textures never skip (skipping_pays).
           r.lipschitz = std::numeric_limits<double>::infinity();
           r.residual = measure_cylindrical_residual(d, h, r.texture, mapping.axis,
-                                                    kResidualVoxels * voxel, interrupter);
-          r.folds = measure_folds(d, h, 64, interrupter);
+                                                    kResidualVoxels * voxel_, interrupter_);
+          r.folds = measure_folds(d, h, 64, interrupter_);
           return r;
         }
-        if (automatic) {
-          AutoDeformation a = bake_deformation_auto(d, spec.box.half_extents, target, budget,
-                                                    kAutoFloorResolution, centred, interrupter);
+        if (automatic_) {
+          AutoDeformation a = bake_deformation_auto(d, h, target_, budget, kAutoFloorResolution,
+                                                    centred, interrupter_);
           r.texture = std::move(a.texture);
           r.texture_error = a.error;
           r.choice = a.choice;
         } else {
-          r.texture = bake_deformation(d, spec.box.half_extents, resolution, centred, interrupter);
-          if (!tex.moves_nothing)
-            r.texture_error = deformation_texture_error(d, r.texture, 2, interrupter);
+          r.texture = bake_deformation(d, h, resolution, centred, interrupter_);
+          if (!tex_.moves_nothing)
+            r.texture_error = deformation_texture_error(d, r.texture, 2, interrupter_);
         }
-        if (!tex.moves_nothing) {
-          r.lipschitz = displacement_lipschitz(d, r.texture, interrupter);
-          r.residual = measure_inverse_residual(d, r.texture, kResidualVoxels * voxel, interrupter);
+        if (!tex_.moves_nothing) {
+          r.lipschitz = displacement_lipschitz(d, r.texture, interrupter_);
+          r.residual =
+              measure_inverse_residual(d, r.texture, kResidualVoxels * voxel_, interrupter_);
           if (const auto* added = dynamic_cast<const AddedDetail*>(&d))
-            r.added_detail =
-                measure_added_detail(*added, spec.box.half_extents, r.texture, interrupter);
+            r.added_detail = measure_added_detail(*added, h, r.texture, interrupter_);
         }
-        r.folds = measure_folds(d, spec.box.half_extents, 64, interrupter);
+        r.folds = measure_folds(d, h, 64, interrupter_);
         return r;
       },
       save_deformation, load_deformation);
-  tex.deformation = std::move(record.texture);
-  report.stages.push_back(grid_stage(Stage::Deformation, tex.deformation.grid,
-                                     tex.deformation.bake_seconds, def_source));
-  if (tex.moves_nothing) {
-    const Eigen::Vector3d pad = Eigen::Vector3d::Constant(kCapVoxels * voxel);
-    tex.region = Eigen::AlignedBox3d(-spec.box.half_extents - pad, spec.box.half_extents + pad);
-    if (!tex.uses_depth_cube)  // within the distance grid
-      tex.region =
-          tex.region.intersection(Eigen::AlignedBox3d(tex.sdf.grid.origin, tex.sdf.grid.upper()));
-    tex.lipschitz = 1.0;
-  } else if (cylindrical_d) {
-    tex.region = cylinder_region;
-    tex.lipschitz = record.lipschitz;
+  tex_.deformation = std::move(record_.texture);
+  report_.stages.push_back(
+      grid_stage(Stage::Deformation, tex_.deformation.grid, tex_.deformation.bake_seconds, source));
+  if (tex_.moves_nothing) {
+    const Eigen::Vector3d pad = Eigen::Vector3d::Constant(kCapVoxels * voxel_);
+    tex_.region = Eigen::AlignedBox3d(-spec_.box.half_extents - pad, spec_.box.half_extents + pad);
+    if (!tex_.uses_depth_cube)  // within the distance grid
+      tex_.region = tex_.region.intersection(
+          Eigen::AlignedBox3d(tex_.sdf.grid.origin, tex_.sdf.grid.upper()));
+    tex_.lipschitz = 1.0;
+  } else if (cylindrical_d_) {
+    tex_.region = cylinder_region_;
+    tex_.lipschitz = record_.lipschitz;
   } else {
-    tex.region = Eigen::AlignedBox3d(tex.deformation.grid.origin, tex.deformation.grid.upper());
-    tex.lipschitz = record.lipschitz;
+    tex_.region = Eigen::AlignedBox3d(tex_.deformation.grid.origin, tex_.deformation.grid.upper());
+    tex_.lipschitz = record_.lipschitz;
   }
-  if (mapping.cylindrical) tex.cylindrical_axis = mapping.axis;
-  report.lipschitz = tex.lipschitz;
+  if (mapping.cylindrical) tex_.cylindrical_axis = mapping.axis;
+  report_.lipschitz = tex_.lipschitz;
+}
 
-  if (out.deformer->has_cut()) {
-    tex.has_cut = true;
-    tex.cut_mode = spec.cut_mode;
-    tex.shell_thickness = spec.shell_thickness;
-    const bool auto_alpha = spec.alpha_resolution == kAutoResolution;
-    const auto alpha_budget = static_cast<std::uint64_t>(spec.alpha_max_mib * double(1 << 20));
-    const double band = kAlphaBandVoxels * voxel;
-    Key alpha_layout;
-    if (auto_alpha)
-      alpha_layout << "auto, error" << target << "band" << band << "budget" << double(alpha_budget)
-                   << "floor" << kAutoAlphaFloorResolution;
-    else
-      alpha_layout << spec.alpha_resolution;
-    const std::string alpha_key =
-        (Key() << "alpha\n"
-               << deformer_key(spec) << "\nregion" << tex.region.min().x() << tex.region.min().y()
-               << tex.region.min().z() << tex.region.max().x() << tex.region.max().y()
-               << tex.region.max().z() << "\nresolution" << alpha_layout.str() << mapping_key.str())
-            .str();
-    AlphaRecord alpha;
-    const Source source = stage(
-        alpha, "alpha", alpha_key, counters_.alpha,
-        [&] {
-          AlphaRecord r;
-          if (mapping.cylindrical) {
-            const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
-                                        kAutoCylindricalFloor[2]);
-            if (auto_alpha) {
-              AutoAlpha a = bake_cylindrical_alpha_auto(*out.deformer, mapping.axis, domain, target,
-                                                        band, alpha_budget, floor, interrupter);
-              r.map = std::move(a.map);
-              r.error = a.error;
-              r.choice = a.choice;
-            } else {
-              const Eigen::Vector3i counts(mapping.angle_texels, spec.alpha_resolution,
-                                           spec.alpha_resolution);
-              r.map =
-                  bake_cylindrical_alpha(*out.deformer, mapping.axis, domain, counts, interrupter);
-              r.error =
-                  cylindrical_alpha_error(*out.deformer, r.map, mapping.axis, band, interrupter);
-            }
-            return r;
-          }
+// A (the cut's alpha map) over the ray-cast region, and its measured error.
+void BoxBake::alpha() {
+  tex_.has_cut = true;
+  tex_.cut_mode = spec_.cut_mode;
+  tex_.shell_thickness = spec_.shell_thickness;
+  const Deformer& deformer = *out_.deformer;
+  const MappingSpec& mapping = spec_.mapping;
+  const bool auto_alpha = spec_.alpha_resolution == kAutoResolution;
+  const auto alpha_budget = static_cast<std::uint64_t>(spec_.alpha_max_mib * double(1 << 20));
+  const double band = kAlphaBandVoxels * voxel_;
+  Key alpha_layout;
+  if (auto_alpha)
+    alpha_layout << "auto, error" << target_ << "band" << band << "budget" << double(alpha_budget)
+                 << "floor" << kAutoAlphaFloorResolution;
+  else
+    alpha_layout << spec_.alpha_resolution;
+  const Eigen::AlignedBox3d& region = tex_.region;
+  const std::string alpha_key =
+      (Key() << "alpha\n"
+             << deformer_key(spec_) << "\nregion" << region.min().x() << region.min().y()
+             << region.min().z() << region.max().x() << region.max().y() << region.max().z()
+             << "\nresolution" << alpha_layout.str() << mapping_key_)
+          .str();
+  AlphaRecord alpha;
+  const Source source = cached(
+      alpha, "alpha", alpha_key, session_.counters_.alpha,
+      [&] {
+        AlphaRecord r;
+        if (mapping.cylindrical) {
+          const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
+                                      kAutoCylindricalFloor[2]);
           if (auto_alpha) {
-            AutoAlpha a = bake_alpha_auto(*out.deformer, tex.region, target, band, alpha_budget,
-                                          kAutoAlphaFloorResolution, interrupter);
+            AutoAlpha a = bake_cylindrical_alpha_auto(deformer, mapping.axis, domain_, target_,
+                                                      band, alpha_budget, floor, interrupter_);
             r.map = std::move(a.map);
             r.error = a.error;
             r.choice = a.choice;
           } else {
-            r.map = bake_alpha(*out.deformer, tex.region, spec.alpha_resolution, interrupter);
-            r.error = alpha_map_error(*out.deformer, r.map, band, 1, interrupter);
+            const Eigen::Vector3i counts(mapping.angle_texels, spec_.alpha_resolution,
+                                         spec_.alpha_resolution);
+            r.map = bake_cylindrical_alpha(deformer, mapping.axis, domain_, counts, interrupter_);
+            r.error = cylindrical_alpha_error(deformer, r.map, mapping.axis, band, interrupter_);
           }
           return r;
-        },
-        save_alpha, load_alpha);
-    tex.alpha = std::move(alpha.map);
-    report.alpha_error = alpha.error;
-    report.alpha_choice = alpha.choice;
-    report.stages.push_back(
-        grid_stage(Stage::Alpha, tex.alpha.grid, tex.alpha.bake_seconds, source));
-  }
+        }
+        if (auto_alpha) {
+          AutoAlpha a = bake_alpha_auto(deformer, region, target_, band, alpha_budget,
+                                        kAutoAlphaFloorResolution, interrupter_);
+          r.map = std::move(a.map);
+          r.error = a.error;
+          r.choice = a.choice;
+        } else {
+          r.map = bake_alpha(deformer, region, spec_.alpha_resolution, interrupter_);
+          r.error = alpha_map_error(deformer, r.map, band, 1, interrupter_);
+        }
+        return r;
+      },
+      save_alpha, load_alpha);
+  tex_.alpha = std::move(alpha.map);
+  report_.alpha_error = alpha.error;
+  report_.alpha_choice = alpha.choice;
+  report_.stages.push_back(
+      grid_stage(Stage::Alpha, tex_.alpha.grid, tex_.alpha.bake_seconds, source));
+}
 
-  if (!tex.moves_nothing) {
-    report.texture_error = record.texture_error;
-    report.deformation_choice = record.choice;
-    report.residual = record.residual;
-    const InverseResidual& res = record.residual;
-    const bool added_detail = dynamic_cast<const AddedDetail*>(out.deformer.get()) != nullptr;
-    if (added_detail) report.added_detail = record.added_detail;
+// What D's figures say: the inverse residual, a texture coarser than a voxel, folds.
+void BoxBake::texture_warnings() {
+  if (!tex_.moves_nothing) {
+    report_.texture_error = record_.texture_error;
+    report_.deformation_choice = record_.choice;
+    report_.residual = record_.residual;
+    const InverseResidual& res = record_.residual;
+    const bool added_detail = dynamic_cast<const AddedDetail*>(out_.deformer.get()) != nullptr;
+    if (added_detail) report_.added_detail = record_.added_detail;
     if (res.over_tolerance > 0 && !added_detail) {
       std::string w = "the deformation texture does not invert the deformation at " +
                       std::to_string(res.over_tolerance) + " of " + std::to_string(res.texels) +
@@ -1148,95 +963,101 @@ BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
       if (res.folded)
         w += "; " + std::to_string(res.folded) + " texels lie where the deformation folds";
       w += "): those points have no preimage or Newton's method did not find it";
-      report.warnings.push_back({"inverse_residual", w});
+      report_.warnings.push_back({"inverse_residual", w});
     }
-    const double voxels = report.texture_error_voxels();
+    const double voxels = report_.texture_error_voxels();
     const std::string advice =
-        automatic ? "raise deformation.max_mib (now " + fmt("%g", spec.deformation_max_mib) +
-                        "; the automatic layout stopped " +
-                        (record.choice.budget_bound
-                             ? std::string("at that budget")
-                             : "after " + std::to_string(record.choice.bakes) + " bakes") +
-                        ")"
-                  : "raise deformation.resolution (now " +
-                        std::to_string(spec.deformation_resolution) + ") or set it to \"auto\"";
+        automatic_ ? "raise deformation.max_mib (now " + fmt("%g", spec_.deformation_max_mib) +
+                         "; the automatic layout stopped " +
+                         (record_.choice.budget_bound
+                              ? std::string("at that budget")
+                              : "after " + std::to_string(record_.choice.bakes) + " bakes") +
+                         ")"
+                   : "raise deformation.resolution (now " +
+                         std::to_string(spec_.deformation_resolution) + ") or set it to \"auto\"";
     if (voxels > 1.0)
-      report.warnings.push_back(
+      report_.warnings.push_back(
           {"texture_coarse", "the deformation texture misplaces points by up to " +
-                                 fmt("%.3g", report.texture_error) + " units (" +
+                                 fmt("%.3g", report_.texture_error) + " units (" +
                                  fmt("%.2g", voxels) +
                                  " voxels of the distance grid) between its texels: " + advice});
   }
-  report.folds = record.folds;
-  if (report.folds.folds())
-    report.warnings.push_back(
-        {"folds", "the deformation folds space in " + fmt("%.3g", report.folds.folded_volume) +
+  report_.folds = record_.folds;
+  if (report_.folds.folds())
+    report_.warnings.push_back(
+        {"folds", "the deformation folds space in " + fmt("%.3g", report_.folds.folded_volume) +
                       " cubic units (" +
-                      fmt("%.2f", 100.0 * report.folds.folded_volume / report.folds.box_volume) +
+                      fmt("%.2f", 100.0 * report_.folds.folded_volume / report_.folds.box_volume) +
                       " % of the box, where det J <= 0); raywarp renders the non-folded branch "
                       "there"});
-  if (!box_holds_mesh(mesh, spec.box))
-    report.warnings.push_back(
+}
+
+// What the mesh and the box say: an empty box, torn faces, open edges, rays too short.
+void BoxBake::mesh_warnings() {
+  if (!box_holds_mesh(mesh_, spec_.box))
+    report_.warnings.push_back(
         {"empty_box",
          "the box holds no part of the mesh (no triangle meets it, and it is not "
          "inside the mesh): it deforms nothing; check its centre and size against "
          "the mesh's bounds"});
-  for (const auto& face : torn_faces(mesh, spec.box, *out.deformer))
-    report.warnings.push_back(
+  for (const auto& face : torn_faces(mesh_, spec_.box, *out_.deformer))
+    report_.warnings.push_back(
         {"torn_face", "the mesh crosses box face " + face +
                           ", where the deformation is not the identity: the surface tears there"});
-  if (const OpenEdges open = open_edges_in_box(mesh, spec.box); open.any()) {
+  if (const OpenEdges open = open_edges_in_box(mesh_, spec_.box); open.any()) {
     std::string w = "the mesh is open or non-manifold inside the box (" +
                     std::to_string(open.boundary) + " boundary and " +
                     std::to_string(open.nonmanifold) +
                     " non-manifold edges): its inside there is taken from the generalised "
                     "winding number";
-    if (tex.uses_depth_cube)
+    if (tex_.uses_depth_cube)
       w += ", and a depth cube draws no sheet that has no inside of its own";
-    else if (tex.sdf.sheet_faces > 0)
-      w += ", and the " + std::to_string(tex.sdf.sheet_faces) +
+    else if (tex_.sdf.sheet_faces > 0)
+      w += ", and the " + std::to_string(tex_.sdf.sheet_faces) +
            " faces with no inside of their own (sheets, cards, fins) are drawn as shells " +
-           fmt("%.3g", 2.0 * tex.sdf.sheet_half_thickness) + " units (" +
+           fmt("%.3g", 2.0 * tex_.sdf.sheet_half_thickness) + " units (" +
            fmt("%g", 2.0 * kSheetHalfVoxels) + " voxels) thick";
-    report.warnings.push_back({"open_mesh", w});
+    report_.warnings.push_back({"open_mesh", w});
   }
-  const double ray_length = tex.region.diagonal().norm();
-  const double reach = job.max_steps * job.step_voxels * voxel;
+  const double ray_length = tex_.region.diagonal().norm();
+  const double reach = job_.max_steps * job_.step_voxels * voxel_;
   if (reach < ray_length)
-    report.warnings.push_back(
-        {"max_steps_short", "render.max_steps = " + std::to_string(job.max_steps) + " covers " +
+    report_.warnings.push_back(
+        {"max_steps_short", "render.max_steps = " + std::to_string(job_.max_steps) + " covers " +
                                 fmt("%.3g", reach) + " units of a ray, less than the " +
                                 fmt("%.3g", ray_length) +
                                 " across the deformed box: long rays stop early and miss"});
-  if (job.texture_bits == 16) {
-    round_textures_to_half(tex);
-    report.half_precision = true;
-  }
-  if (traces_bounded(job.sampling, tex.has_cut, tex.moves_nothing)) {
-    const std::string bounds_key =
-        (Key() << "step bounds\n"
-               << sdf_key << "\n"
-               << def_key << (job.texture_bits == 16 ? "16-bit" : "32-bit"))
-            .str();
-    const Source source = stage(
-        tex.step_bounds, "bounds", bounds_key, counters_.step_bounds,
-        [&] { return bake_step_bounds(tex.sdf, tex.deformation, 8, interrupter); },
-        save_step_bounds, load_step_bounds);
-    const StepBounds& sb = tex.step_bounds;
-    StageReport s = grid_stage(Stage::StepBounds, sb.bricks, 0.0, source);
-    s.bytes += grid_bytes(sb.sdf_bricks);
-    report.stages.push_back(s);
-    report.brick_cells = sb.brick_cells;
-    auto range = [](const Grid3<float>& g, double& lo, double& hi) {
-      const auto [a, b] = std::minmax_element(g.data.begin(), g.data.end());
-      lo = *a;
-      hi = *b;
-    };
-    range(sb.sdf_bricks, report.sdf_bound_min, report.sdf_bound_max);
-    range(sb.bricks, report.d_bound_min, report.d_bound_max);
-    report.sdf_lipschitz = sb.sdf_lipschitz;
-  }
-  return out;
+}
+
+// The bricks' bounds for bounded tracing (after the 16-bit rounding, which they bound).
+void BoxBake::step_bounds() {
+  const std::string bounds_key =
+      (Key() << "step bounds\n"
+             << sdf_key_ << "\n"
+             << def_key_ << (job_.texture_bits == 16 ? "16-bit" : "32-bit"))
+          .str();
+  const Source source = cached(
+      tex_.step_bounds, "bounds", bounds_key, session_.counters_.step_bounds,
+      [&] { return bake_step_bounds(tex_.sdf, tex_.deformation, 8, interrupter_); },
+      save_step_bounds, load_step_bounds);
+  const StepBounds& sb = tex_.step_bounds;
+  StageReport s = grid_stage(Stage::StepBounds, sb.bricks, 0.0, source);
+  s.bytes += grid_bytes(sb.sdf_bricks);
+  report_.stages.push_back(s);
+  report_.brick_cells = sb.brick_cells;
+  auto range = [](const Grid3<float>& g, double& lo, double& hi) {
+    const auto [a, b] = std::minmax_element(g.data.begin(), g.data.end());
+    lo = *a;
+    hi = *b;
+  };
+  range(sb.sdf_bricks, report_.sdf_bound_min, report_.sdf_bound_max);
+  range(sb.bricks, report_.d_bound_min, report_.d_bound_max);
+  report_.sdf_lipschitz = sb.sdf_lipschitz;
+}
+
+BakedBox BakeSession::bake(const BakeJob& job, Interrupter* interrupter) {
+  if (!job.mesh) throw Error(job.where + ": no mesh");
+  return BoxBake(*this, job, interrupter).run();
 }
 
 std::vector<BoxTextures> PreparedScene::textures() const {

@@ -201,6 +201,7 @@ class BakeSession {
   BakeCache* disk() const { return disk_; }
 
  private:
+  friend class BoxBake;  // one box's bake, stage by stage (library/bake.cpp)
   struct Entry;
   std::shared_ptr<const void> find(const std::string& key);
   void keep(const std::string& key, std::shared_ptr<const void> value, std::uint64_t bytes);

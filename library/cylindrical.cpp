@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "base/clock.h"
 #include "base/error.h"
 #include "base/parallel.h"
 #include "library/refine_layout.h"
@@ -16,10 +17,6 @@ namespace raywarp {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // x wrapped into (-pi, pi].
 double wrap_angle(double x) {

@@ -355,17 +355,15 @@ std::vector<ExportedTexture> export_textures(const BakedBox& baked) {
   return out;
 }
 
-nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
-                          const ExportOptions& options, const fs::path& dir,
-                          const std::string& stem) {
+namespace {
+
+// The sidecar's description of the box, its textures and what they mean (all but "files").
+nlohmann::json sidecar(const BakedBox& baked, const std::vector<ExportedTexture>& textures,
+                       const ExportSource& source, const ExportOptions& options) {
   const BoxTextures& tex = baked.textures;
   const BakeReport& report = baked.report;
   const Box& box = tex.box;
   const Eigen::Vector3d h = box.half_extents;
-  const std::vector<ExportedTexture> textures = export_textures(baked);
-  if (options.atlas_border < 0 || options.atlas_border > 1)
-    throw Error("atlas border = " + std::to_string(options.atlas_border) + ": must be 0 or 1");
-
   nlohmann::json side;
   side["schema"] = "raywarp.export";
   side["version"] = kExportSchemaVersion;
@@ -478,14 +476,17 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
   for (const auto& t : textures) entries[t.volume.name] = texture_entry(t);
   side["textures"] = entries;
 
-  // The metadata each texture carries inside its own file (KTX2 key/value, OpenVDB metadata):
-  // the sidecar without the list of files (which the files cannot know before they exist).
-  const std::string embedded = side.dump();
+  return side;
+}
 
-  fs::create_directories(dir);
-  nlohmann::json files = nlohmann::json::array();
-  auto record = [&](const ExportedTexture& t, ExportFormat f, const std::string& name,
-                    Storage storage, double error, nlohmann::json extra = {}) {
+// Writes texture `t` in format `f` (KTX2, DDS or an atlas) and returns its entry of the
+// sidecar's "files"; a texture the format cannot hold adds a warning and returns null.
+nlohmann::json write_texture_file(const ExportedTexture& t, ExportFormat f, const BoxTextures& tex,
+                                  const ExportOptions& options, const fs::path& dir,
+                                  const std::string& stem, const std::string& embedded,
+                                  nlohmann::json& warnings) {
+  auto record = [&](const std::string& name, Storage storage, double error,
+                    nlohmann::json extra = {}) {
     nlohmann::json e = {
         {"texture", t.volume.name},
         {"format", format_name(f)},
@@ -494,132 +495,159 @@ nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
         {"storage", f == ExportFormat::AtlasPng ? "unorm16" : storage_name(storage)},
         {"max_error", error}};
     for (auto it = extra.begin(); it != extra.end(); ++it) e[it.key()] = it.value();
-    files.push_back(e);
+    return e;
   };
+  if (f == ExportFormat::AtlasPng && t.volume.name == "depth") {
+    warnings.push_back(
+        {{"code", "depth_cube_not_in_png"},
+         {"message",
+          "the depth cube's texture is not written as a 16-bit PNG: its range (+-far_depth) "
+          "leaves codes " +
+              std::to_string(2.0 * cube_far(tex) / 65535.0) +
+              " largest half extents apart; read it from ktx2, dds or atlas-exr"}});
+    return nullptr;
+  }
+  const std::string name = file_name(stem, t.volume.name, f);
+  const std::string path = (dir / name).string();
+  const TextureVolume v = as_stored(t, options.storage);
+  if (f == ExportFormat::Ktx2) {
+    const auto bytes = encode_ktx2(v, options.storage, {{"raywarp.export", embedded}});
+    write_file_atomic(path, bytes.data(), bytes.size());
+    return record(name, options.storage, decode_error(t, v));
+  } else if (f == ExportFormat::Dds) {
+    const auto bytes =
+        encode_dds(v, options.storage, options.dds_legacy ? DdsHeader::Legacy : DdsHeader::Dx10);
+    write_file_atomic(path, bytes.data(), bytes.size());
+    return record(name, options.storage, decode_error(t, v),
+                  {{"header", options.dds_legacy ? "legacy FourCC" : "DX10"}});
+  } else {
+    const AtlasLayout layout = atlas_layout(t.volume.dims, options.atlas_border);
+    nlohmann::json atlas = {{"tiles", {layout.tiles_x, layout.tiles_y}},
+                            {"border", layout.border},
+                            {"size", {layout.width(), layout.height()}},
+                            {"order",
+                             "slice z at tile (z % tiles_x, z / tiles_x), tile rows from the "
+                             "top; within a tile, texel row j is image row j from the tile's "
+                             "top (plus the border)"}};
+    if (f == ExportFormat::AtlasExr) {
+      write_atlas_exr(path, v, layout, options.storage);
+      return record(name, options.storage, decode_error(t, v), atlas);
+    } else {
+      // 16-bit unsigned codes over each channel's range; bounds are exported exactly only
+      // as floats, so their unorm codes are rounded up like their halves.
+      TextureVolume in = t.volume;
+      const UnormEncoding enc = write_atlas_png16(path, in, layout);
+      const TextureVolume back = read_atlas_png16(path, layout, enc, in.channels);
+      double error = decode_error(t, back);
+      if (t.round_up)  // a unorm code may round a bound down: say so rather than hide it
+        for (size_t i = 0; i < back.values.size(); ++i)
+          if (back.values[i] < in.values[i]) {
+            atlas["bound_warning"] = "unorm16 codes may round a bound down by up to max_error";
+            break;
+          }
+      atlas["decode"] = "stored = lo + code / 65535 * (hi - lo), then object = stored * scale";
+      atlas["lo"] = enc.lo;
+      atlas["hi"] = enc.hi;
+      return record(name, Storage::Float, error, atlas);
+    }
+  }
+}
+
+// Writes every grid into one OpenVDB file and returns its entry of the sidecar's "files".
+nlohmann::json write_vdb_file(const std::vector<ExportedTexture>& textures, const BoxTextures& tex,
+                              const fs::path& dir, const std::string& stem,
+                              const std::string& embedded) {
+  const Box& box = tex.box;
+  const Eigen::Vector3d h = box.half_extents;
+  // For DCC tools: object space and object units (vectors rotated into the object frame), the
+  // index-to-world transform of each grid placing voxel centres where the texels' are.
+  std::vector<VdbGrid> grids;
+  for (const auto& t : textures) {
+    // The bounds are for ray casters, not DCC tools; so is a depth cube's maps.
+    if (t.round_up || !t.has_region) continue;
+    Eigen::Matrix4d index_to_local = Eigen::Matrix4d::Identity();
+    const Eigen::Vector3d spacing = t.spacing_box_units.cwiseProduct(h);
+    const Eigen::Vector3d first = t.origin_box_units.cwiseProduct(h) + 0.5 * spacing;
+    index_to_local.topLeftCorner<3, 3>() = spacing.asDiagonal();
+    index_to_local.topRightCorner<3, 1>() = first;
+    const Eigen::Matrix4d index_to_world = box.local_to_object() * index_to_local;
+    const TextureVolume& v = t.volume;
+    if (t.volume.name == "deformation") {
+      VdbGrid dg;
+      dg.name = "deformation";
+      dg.index_to_world = index_to_world;
+      dg.vector_is_displacement = true;
+      dg.volume = volume_from("deformation", v.dims, 3, [&](int i, int j, int k, int c) {
+        Eigen::Vector3d local(v.at(i, j, k, 0) * h.x(), v.at(i, j, k, 1) * h.y(),
+                              v.at(i, j, k, 2) * h.z());
+        return static_cast<float>((box.rotation * local)[c]);
+      });
+      VdbGrid valid;
+      valid.name = "valid";
+      valid.index_to_world = index_to_world;
+      valid.volume = volume_from("valid", v.dims, 1,
+                                 [&](int i, int j, int k, int) { return v.at(i, j, k, 3); });
+      grids.push_back(std::move(dg));
+      grids.push_back(std::move(valid));
+    } else {
+      VdbGrid s;
+      s.name = t.volume.name;
+      s.index_to_world = index_to_world;
+      s.volume = volume_from(t.volume.name, v.dims, 1, [&](int i, int j, int k, int) {
+        return static_cast<float>(v.at(i, j, k, 0) * t.scale[0]);
+      });
+      if (t.volume.name == "distance") {
+        // OpenVDB's level sets are negative inside: f's sign flipped, as tools expect.
+        for (float& x : s.volume.values) x = -x;
+        s.level_set = true;
+        s.background = static_cast<float>(tex.sdf.background);
+      }
+      grids.push_back(std::move(s));
+    }
+  }
+  const std::string name = stem + ".vdb";
+  write_vdb((dir / name).string(), grids, {{"raywarp.export", embedded}});
+  nlohmann::json e = {
+      {"texture", "all"},
+      {"format", "vdb"},
+      {"file", name},
+      {"bytes", fs::file_size(dir / name)},
+      {"storage", "float"},
+      {"max_error", 0.0},
+      {"grids", tex.uses_depth_cube
+                    ? "deformation (vec3, object space and units, p = p' + D), valid, "
+                      "alpha (cuts); no distance: the implicit is a depth cube"
+                    : "deformation (vec3, object space and units, p = p' + D), valid, "
+                      "distance (level set, OpenVDB's sign: negative inside), alpha "
+                      "(cuts)"}};
+  return e;
+}
+
+}  // namespace
+
+nlohmann::json export_box(const BakedBox& baked, const ExportSource& source,
+                          const ExportOptions& options, const fs::path& dir,
+                          const std::string& stem) {
+  const std::vector<ExportedTexture> textures = export_textures(baked);
+  if (options.atlas_border < 0 || options.atlas_border > 1)
+    throw Error("atlas border = " + std::to_string(options.atlas_border) + ": must be 0 or 1");
+  nlohmann::json side = sidecar(baked, textures, source, options);
+  // The metadata each texture carries inside its own file (KTX2 key/value, OpenVDB metadata):
+  // the sidecar without the list of files (which the files cannot know before they exist).
+  const std::string embedded = side.dump();
+  fs::create_directories(dir);
+  nlohmann::json files = nlohmann::json::array();
   for (ExportFormat f : options.formats) {
     if (f == ExportFormat::Vdb) continue;  // below: one file for every grid
-    for (const auto& t : textures) {
-      if (f == ExportFormat::AtlasPng && t.volume.name == "depth") {
-        side["warnings"].push_back(
-            {{"code", "depth_cube_not_in_png"},
-             {"message",
-              "the depth cube's texture is not written as a 16-bit PNG: its range (+-far_depth) "
-              "leaves codes " +
-                  std::to_string(2.0 * cube_far(tex) / 65535.0) +
-                  " largest half extents apart; read it from ktx2, dds or atlas-exr"}});
-        continue;
-      }
-      const std::string name = file_name(stem, t.volume.name, f);
-      const std::string path = (dir / name).string();
-      const TextureVolume v = as_stored(t, options.storage);
-      if (f == ExportFormat::Ktx2) {
-        const auto bytes = encode_ktx2(v, options.storage, {{"raywarp.export", embedded}});
-        write_file_atomic(path, bytes.data(), bytes.size());
-        record(t, f, name, options.storage, decode_error(t, v));
-      } else if (f == ExportFormat::Dds) {
-        const auto bytes = encode_dds(v, options.storage,
-                                      options.dds_legacy ? DdsHeader::Legacy : DdsHeader::Dx10);
-        write_file_atomic(path, bytes.data(), bytes.size());
-        record(t, f, name, options.storage, decode_error(t, v),
-               {{"header", options.dds_legacy ? "legacy FourCC" : "DX10"}});
-      } else {
-        const AtlasLayout layout = atlas_layout(t.volume.dims, options.atlas_border);
-        nlohmann::json atlas = {{"tiles", {layout.tiles_x, layout.tiles_y}},
-                                {"border", layout.border},
-                                {"size", {layout.width(), layout.height()}},
-                                {"order",
-                                 "slice z at tile (z % tiles_x, z / tiles_x), tile rows from the "
-                                 "top; within a tile, texel row j is image row j from the tile's "
-                                 "top (plus the border)"}};
-        if (f == ExportFormat::AtlasExr) {
-          write_atlas_exr(path, v, layout, options.storage);
-          record(t, f, name, options.storage, decode_error(t, v), atlas);
-        } else {
-          // 16-bit unsigned codes over each channel's range; bounds are exported exactly only
-          // as floats, so their unorm codes are rounded up like their halves.
-          TextureVolume in = t.volume;
-          const UnormEncoding enc = write_atlas_png16(path, in, layout);
-          const TextureVolume back = read_atlas_png16(path, layout, enc, in.channels);
-          double error = decode_error(t, back);
-          if (t.round_up)  // a unorm code may round a bound down: say so rather than hide it
-            for (size_t i = 0; i < back.values.size(); ++i)
-              if (back.values[i] < in.values[i]) {
-                atlas["bound_warning"] = "unorm16 codes may round a bound down by up to max_error";
-                break;
-              }
-          atlas["decode"] = "stored = lo + code / 65535 * (hi - lo), then object = stored * scale";
-          atlas["lo"] = enc.lo;
-          atlas["hi"] = enc.hi;
-          record(t, f, name, Storage::Float, error, atlas);
-        }
-      }
-    }
+    for (const auto& t : textures)
+      if (nlohmann::json e = write_texture_file(t, f, baked.textures, options, dir, stem, embedded,
+                                                side["warnings"]);
+          !e.is_null())
+        files.push_back(std::move(e));
   }
   if (std::find(options.formats.begin(), options.formats.end(), ExportFormat::Vdb) !=
-      options.formats.end()) {
-    // For DCC tools: object space and object units (vectors rotated into the object frame), the
-    // index-to-world transform of each grid placing voxel centres where the texels' are.
-    std::vector<VdbGrid> grids;
-    for (const auto& t : textures) {
-      // The bounds are for ray casters, not DCC tools; so is a depth cube's maps.
-      if (t.round_up || !t.has_region) continue;
-      Eigen::Matrix4d index_to_local = Eigen::Matrix4d::Identity();
-      const Eigen::Vector3d spacing = t.spacing_box_units.cwiseProduct(h);
-      const Eigen::Vector3d first = t.origin_box_units.cwiseProduct(h) + 0.5 * spacing;
-      index_to_local.topLeftCorner<3, 3>() = spacing.asDiagonal();
-      index_to_local.topRightCorner<3, 1>() = first;
-      const Eigen::Matrix4d index_to_world = box.local_to_object() * index_to_local;
-      const TextureVolume& v = t.volume;
-      if (t.volume.name == "deformation") {
-        VdbGrid dg;
-        dg.name = "deformation";
-        dg.index_to_world = index_to_world;
-        dg.vector_is_displacement = true;
-        dg.volume = volume_from("deformation", v.dims, 3, [&](int i, int j, int k, int c) {
-          Eigen::Vector3d local(v.at(i, j, k, 0) * h.x(), v.at(i, j, k, 1) * h.y(),
-                                v.at(i, j, k, 2) * h.z());
-          return static_cast<float>((box.rotation * local)[c]);
-        });
-        VdbGrid valid;
-        valid.name = "valid";
-        valid.index_to_world = index_to_world;
-        valid.volume = volume_from("valid", v.dims, 1,
-                                   [&](int i, int j, int k, int) { return v.at(i, j, k, 3); });
-        grids.push_back(std::move(dg));
-        grids.push_back(std::move(valid));
-      } else {
-        VdbGrid s;
-        s.name = t.volume.name;
-        s.index_to_world = index_to_world;
-        s.volume = volume_from(t.volume.name, v.dims, 1, [&](int i, int j, int k, int) {
-          return static_cast<float>(v.at(i, j, k, 0) * t.scale[0]);
-        });
-        if (t.volume.name == "distance") {
-          // OpenVDB's level sets are negative inside: f's sign flipped, as tools expect.
-          for (float& x : s.volume.values) x = -x;
-          s.level_set = true;
-          s.background = static_cast<float>(tex.sdf.background);
-        }
-        grids.push_back(std::move(s));
-      }
-    }
-    const std::string name = stem + ".vdb";
-    write_vdb((dir / name).string(), grids, {{"raywarp.export", embedded}});
-    nlohmann::json e = {
-        {"texture", "all"},
-        {"format", "vdb"},
-        {"file", name},
-        {"bytes", fs::file_size(dir / name)},
-        {"storage", "float"},
-        {"max_error", 0.0},
-        {"grids", tex.uses_depth_cube
-                      ? "deformation (vec3, object space and units, p = p' + D), valid, "
-                        "alpha (cuts); no distance: the implicit is a depth cube"
-                      : "deformation (vec3, object space and units, p = p' + D), valid, "
-                        "distance (level set, OpenVDB's sign: negative inside), alpha "
-                        "(cuts)"}};
-    files.push_back(e);
-  }
+      options.formats.end())
+    files.push_back(write_vdb_file(textures, baked.textures, dir, stem, embedded));
   side["files"] = files;
   const std::string text = side.dump(2) + "\n";
   write_file_atomic((dir / (stem + ".json")).string(), text);
