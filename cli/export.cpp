@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 
 nlohmann::json export_animation(const Scene& scene, size_t index) {
   const BoxSpec& b = scene.boxes[index];
-  if (!b.then.empty() || b.mapping.cylindrical || scene.render.sampling == Sampling::Bounded) return {};
+  if (!b.then.empty() || b.mapping.cylindrical || scene.render.sampling == Sampling::Bounded)
+    return {};
   const char* axes = "xyz";
   if (b.deformer.type == "twist" && b.deformer.angle_deg != 0.0) {
     const int a = b.deformer.axis;

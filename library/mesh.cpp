@@ -219,7 +219,6 @@ std::string format_point(const Eigen::Vector3d& p) {
 
 }  // namespace
 
-
 namespace {
 
 // The file's meshes merged (vertices in the file's order); with morph >= 0 the morph target's

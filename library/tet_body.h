@@ -52,8 +52,8 @@ TetBody build_tet_body(const BakedBox& box, const Mesh& mesh, const TetDisplaySp
 const std::vector<double>& shown_scalar(const TetBody& body, const TetDisplaySpec& spec);
 
 // The transfer function the volume mode uses when the scene gives none, over the scalar's values
-// v (hi = their 95th percentile, d = the body's diagonal): f: transparent at 0 (the surface) rising to
-// 2/d at hi/2 and 8/d at hi, blue to green to red (nothing outside the part); strain: the same
+// v (hi = their 95th percentile, d = the body's diagonal): f: transparent at 0 (the surface) rising
+// to 2/d at hi/2 and 8/d at hi, blue to green to red (nothing outside the part); strain: the same
 // ramp from 0 to hi with 0.5/d at 0, so the whole body shows faintly.
 TransferFunction default_transfer_function(const std::vector<double>& values,
                                            const std::string& scalar, double diagonal);

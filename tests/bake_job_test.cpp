@@ -213,7 +213,8 @@ TEST(BakeJob, EveryStageCancelsPromptly) {
       {"bunny_control_points.json", "deformation texture",
        [](Scene& s) { s.boxes[0].deformation_resolution = 128; }, 1},
       {"bunny_peel.json", "alpha map", [](Scene& s) { s.boxes[0].alpha_resolution = 256; }, 2},
-      {"bunny_twist.json", "step bounds", [](Scene& s) { s.render.sampling = Sampling::Bounded; }, 2},
+      {"bunny_twist.json", "step bounds", [](Scene& s) { s.render.sampling = Sampling::Bounded; },
+       2},
       {"bunny_twist.json", "depth cube",
        [](Scene& s) {
          s.boxes[0].implicit.type = "depth_cube";
