@@ -1,373 +1,339 @@
-// Numerical experiments on bake_deformation (deformers/deformer.h): the baked inverse
-// displacement against the analytic inverse within the trilinear interpolation bound, and
-// finite, well-flagged textures for extreme twists and bends.
-//
-// The interpolation bound. Grid3::sample is trilinear between the 8 texel centres around p', a
-// cube of side s. In 1D, linear interpolation of f between nodes s apart errs by
-// |f''(xi)| x (s - x) / 2 <= s^2 / 8 max|f''|. Trilinear interpolation is I = Ix Iy Iz, each a
-// convex combination (max norm 1), and f - I f = (f - Iz f) + Iz (f - Iy f) + Iz Iy (f - Ix f),
-// so per component c of D
-//   |D_c - I D_c| <= s^2 / 8 (max|d^2 D_c/dx^2| + max|d^2 D_c/dy^2| + max|d^2 D_c/dz^2|)     (1)
-// over the cube: (3/8) s^2 max|d^2 D| in general, sharper below. Only pure second derivatives
-// along the grid axes (the box axes) enter; D and F^-1 = D + identity have the same ones. (1)
-// needs D smooth on the cube: it is if the 8 corners all have w = 1 and the region the inverse
-// treats with one formula is convex (the slab |p'_a| <= h_a for a twist; the wedge
-// 0 <= theta <= phi for a bend of at most 180 degrees). The test takes points p' = F(p) whose
-// 4x4x4 texel block (the stencil and one texel around it) all have w = 1.
-//
-// Twist about a, g = phi / L: F^-1(p') = R_a(-g (p'_a + h_a)) p' inside the slab. At fixed p'_a it
-// is linear in the other two coordinates, so only d^2/dp'_a^2 = g^2 R_a''(-theta) p' is non-zero:
-// a vector orthogonal to a of length g^2 r, r = distance from the axis. r is convex, so on the
-// cube it is largest at a corner, and corners lie in F(box): r <= r_max = hypot(h_u, h_v). So
-//   |error_c| <= s^2 / 8 g^2 r_max for c != a, and D_a = 0 exactly.
-// Bend about d (axes a, b, curvature k, centre of curvature at distance rho): on the sector
-// q_a = theta / k with theta the polar angle about the centre, and q_b = R - sign(k) rho. For a
-// polar angle, |d^2 theta/dx^2| + |d^2 theta/dy^2| = 4 |x y| / rho^4 <= 2 / rho^2; for the radius,
-// d^2 rho/dx^2 + d^2 rho/dy^2 = 1 / rho. So
-//   |error_a| <= s^2 / 8 * 2 / (|k| rho_lo^2),   |error_b| <= s^2 / 8 / rho_lo,   error_d = 0,
-// with rho_lo the least rho on the cube: corners lie in F(box), rho >= |R| - h_b there, and rho is
-// 1-Lipschitz, so rho_lo >= |R| - h_b - s / sqrt(2) (the cube's (a, b) face is a square).
-// Float storage adds at most 2^-24 |D_c| per component (round to nearest; the interpolation is a
-// convex combination), and the double arithmetic of the test ~1e-15.
+// The library API the front ends use (library/bake.h): one box baked by a job, a distance-grid
+// bake cancelled mid-way (no cache entry, no file, back within 100 ms), re-bake by stage, and
+// every figure read from the BakeReport.
+#include "library/bake.h"
+
 #include <gtest/gtest.h>
 
-#include <cmath>
-#include <cstdio>
-#include <numbers>
-#include <random>
-#include <vector>
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <thread>
 
-#include "base/error.h"
-#include "deformers/bend.h"
-#include "deformers/box_cut.h"
-#include "deformers/deformer.h"
-#include "deformers/incision.h"
-#include "deformers/twist.h"
-#include "library/deformation_bake.h"
 #include "library/scene.h"
+#include "library/winding.h"
+#include "tests/sanitizer.h"
 
 namespace raywarp {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr double kFloatRounding = 0x1p-24;
+namespace fs = std::filesystem;
 
-// Uniform in [-h, h].
-Eigen::Vector3d random_point(std::mt19937_64& rng, const Eigen::Vector3d& h) {
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  return Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).cwiseProduct(h);
+Scene example(const std::string& name) {
+  return load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/" + name);
 }
 
-// Whether the trilinear stencil of p' and one texel around it (4x4x4 texels) exist and all have
-// w = 1.
-bool well_inside(const Grid3<Eigen::Vector4f>& grid, const Eigen::Vector3d& p_def) {
-  const Eigen::Vector3d u =
-      (p_def - grid.origin).cwiseQuotient(grid.spacing) - Eigen::Vector3d::Constant(0.5);
-  Eigen::Vector3i base;
-  for (int a = 0; a < 3; ++a) {
-    base[a] = static_cast<int>(std::floor(u[a]));
-    if (base[a] - 1 < 0 || base[a] + 2 >= grid.dims[a]) return false;
+// The example with small grids (testing::kSmallGrid texels: 64, 24 under the sanitizers): what a
+// cancel or a cache read does depends on the stages, not on their sizes.
+Scene small_example(const std::string& name) {
+  Scene scene = example(name);
+  for (BoxSpec& box : scene.boxes) {
+    box.implicit.resolution = std::max(32, raywarp::testing::kSmallGrid);
+    box.deformation_resolution = raywarp::testing::kSmallGrid;
+    box.alpha_resolution = raywarp::testing::kSmallGrid;
   }
-  for (int k = -1; k <= 2; ++k)
-    for (int j = -1; j <= 2; ++j)
-      for (int i = -1; i <= 2; ++i)
-        if (grid.at(base.x() + i, base.y() + j, base.z() + k).w() != 1.0f) return false;
-  return true;
+  return scene;
 }
 
-// Largest |sampled D_c - analytic D_c| / bound_c over points p' = F(p) well inside the valid
-// region; prints the errors and bounds.
-double worst_error_ratio(const Deformer& deformer, const Eigen::Vector3d& h,
-                         const DeformationTexture& texture, const Eigen::Vector3d& bound) {
-  std::mt19937_64 rng(11);
-  Eigen::Vector3d worst = Eigen::Vector3d::Zero();
-  int used = 0;
-  for (int n = 0; n < 20000; ++n) {
-    const Eigen::Vector3d p_def = deformer.forward(random_point(rng, h));
-    if (!well_inside(texture.grid, p_def)) continue;
-    ++used;
-    const Eigen::Vector3d analytic = deformer.inverse(p_def) - p_def;
-    const Eigen::Vector3d sampled = texture.grid.sample(p_def).head<3>();
-    worst = worst.cwiseMax((sampled - analytic).cwiseAbs());
-  }
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("raywarp_bake_job_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+long files_in(const fs::path& dir) {
+  long n = 0;
+  if (fs::exists(dir))
+    for (const auto& e : fs::recursive_directory_iterator(dir)) n += e.is_regular_file();
+  return n;
+}
+
+TEST(BakeJob, BakesOneBoxAndReportsEveryFigure) {
+  const Scene scene = example("bunny_twist.json");
+  BakeSession session;
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  EXPECT_EQ(session.mesh(scene.mesh), mesh);  // loaded and hashed once
+  EXPECT_GT(mesh->stats.faces, 1000);
+  EXPECT_EQ(mesh->hash.size(), 16u);
+
+  std::vector<std::string> stages;
+  Interrupter progress(
+      [&](const std::string& stage, double) {
+        if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+      },
+      0.0);
+  const BakedBox box = session.bake(make_job(scene, 0, mesh), &progress);
+  EXPECT_GT(progress.polls(), 20);
+  EXPECT_NE(std::find(stages.begin(), stages.end(), "distance"), stages.end());
+  EXPECT_NE(std::find(stages.begin(), stages.end(), "deformation texture"), stages.end());
+
+  const BakeReport& r = box.report;
+  EXPECT_EQ(r.deformer, "twist about y by 360\u00b0");
+  EXPECT_EQ(r.parameters, "twist: axis y, angle_deg 360");
+  const StageReport* sdf = r.stage(Stage::DistanceGrid);
+  const StageReport* def = r.stage(Stage::Deformation);
+  ASSERT_TRUE(sdf && def);
+  EXPECT_EQ(r.stage(Stage::Alpha), nullptr);  // no cut
+  EXPECT_EQ(sdf->source, Source::Baked);
+  EXPECT_EQ(sdf->resolution, box.textures.sdf.grid.dims);
+  EXPECT_EQ(sdf->bytes, box.textures.sdf.grid.size() * 4);
+  EXPECT_GT(sdf->seconds, 0.0);
+  EXPECT_EQ(sdf->spacing, box.textures.sdf.grid.spacing);
+  EXPECT_EQ(def->resolution, box.textures.deformation.grid.dims);
+  // The automatic layout: at least the cubic floor's texels, an error within its target.
+  EXPECT_EQ(scene.boxes[0].deformation_resolution, kAutoResolution);
+  EXPECT_GE(def->resolution.maxCoeff(), kAutoFloorResolution);
+  EXPECT_TRUE(r.deformation_choice.automatic);
+  EXPECT_GE(r.deformation_choice.bakes, 1);
+  EXPECT_DOUBLE_EQ(r.deformation_choice.target, kAutoErrorVoxels * r.voxel);
+  EXPECT_LE(r.texture_error, r.deformation_choice.target);
+  EXPECT_LE(def->bytes, r.deformation_choice.budget_bytes);
+  EXPECT_EQ(def->bytes, box.textures.deformation.grid.size() * 16);
+  EXPECT_DOUBLE_EQ(r.voxel, sdf->spacing.x());
+  EXPECT_GT(r.active_voxels, 1000);
+  EXPECT_FALSE(r.sign_method.empty());
+  EXPECT_GT(r.lipschitz, 1.0);
+  EXPECT_TRUE(std::isfinite(r.lipschitz));
+  EXPECT_GT(r.texture_error, 0.0);
+  EXPECT_LT(r.texture_error_voxels(), 1.0);
+  EXPECT_GT(r.residual.texels, 1000);
+  EXPECT_EQ(r.residual.over_tolerance, 0);
+  EXPECT_FALSE(r.folds.folds());
+  EXPECT_GT(r.folds.box_volume, 0.0);
+  EXPECT_TRUE(r.warnings.empty());
   std::printf(
-      "%s: texel %.4g, %d points; max error (%.3g, %.3g, %.3g) <= bound (%.3g, %.3g, %.3g)\n",
-      deformer.describe().c_str(), texture.grid.voxel(), used, worst.x(), worst.y(), worst.z(),
-      bound.x(), bound.y(), bound.z());
-  EXPECT_GT(used, 5000) << deformer.describe();
-  return worst.cwiseQuotient(bound).maxCoeff();
+      "[figures] bunny twist job: grid %dx%dx%d (%.1f MiB, %.2f s), D %dx%dx%d (%.1f MiB, %.2f s), "
+      "|I + J_D| <= %.3g, texture error %.3g voxels, residual max %.3g\n",
+      sdf->resolution.x(), sdf->resolution.y(), sdf->resolution.z(), sdf->bytes / 1048576.0,
+      sdf->seconds, def->resolution.x(), def->resolution.y(), def->resolution.z(),
+      def->bytes / 1048576.0, def->seconds, r.lipschitz, r.texture_error_voxels(), r.residual.max);
 }
 
-TEST(Bake, TwistWithinInterpolationBound) {
-  struct Case {
-    Eigen::Vector3d h;
-    Axis axis;
-    double angle_deg;
-  };
-  for (const Case& c :
-       {Case{{0.5, 0.8, 0.35}, Axis::Y, 360.0}, Case{{0.45, 0.3, 0.9}, Axis::Z, -270.0}}) {
-    const auto twist = make_twist(c.h, c.axis, c.angle_deg);
-    const DeformationTexture texture = bake_deformation(*twist, c.h, 64);
-    const int a = static_cast<int>(c.axis);
-    const double s = texture.grid.voxel();
-    const double g = c.angle_deg * kDeg / (2.0 * c.h[a]);
-    const double r_max = std::hypot(c.h[(a + 1) % 3], c.h[(a + 2) % 3]);
-    const double slack = kFloatRounding * 2.0 * r_max + 1e-14;  // |D| <= 2 r for a rotation
-    Eigen::Vector3d bound = Eigen::Vector3d::Constant(s * s / 8.0 * g * g * r_max + slack);
-    bound[a] = slack;
-    EXPECT_LE(worst_error_ratio(*twist, c.h, texture, bound), 1.0) << twist->describe();
+TEST(BakeJob, ChangingTheAngleRebakesOnlyTheDeformationTexture) {
+  Scene scene = small_example("bunny_twist.json");
+  const fs::path dir = fresh_dir("stages");
+  BakeCache cache(dir);
+  BakeSession session(&cache);
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);
+  EXPECT_EQ(session.counters().deformation, 1);
+
+  scene.boxes[0].deformer.angle_deg = 200;
+  const BakedBox second = session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);  // from memory
+  EXPECT_EQ(session.counters().deformation, 2);
+  EXPECT_EQ(second.report.stage(Stage::DistanceGrid)->source, Source::Memory);
+  EXPECT_EQ(second.report.stage(Stage::Deformation)->source, Source::Baked);
+
+  // The same job again bakes nothing; a new session reads both stages from the disk cache.
+  session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().baked(), 3);
+  BakeSession later(&cache);
+  const BakedBox again = later.bake(make_job(scene, 0, later.mesh(scene.mesh)));
+  EXPECT_EQ(later.counters().baked(), 0);
+  EXPECT_EQ(later.counters().disk_hits, 2);
+  EXPECT_EQ(again.report.stage(Stage::DistanceGrid)->source, Source::Disk);
+  EXPECT_EQ(again.textures.deformation.grid.data, second.textures.deformation.grid.data);
+  fs::remove_all(dir);
+}
+
+// A distance grid big enough to take a while (the dragon at 384^3), cancelled from another
+// thread once its bake is under way: the bake throws Cancelled promptly, stores nothing, and the
+// session bakes the next job at once.
+TEST(BakeJob, CancelledDistanceGridLeavesNothingBehind) {
+  const fs::path dragon = fs::path(RAYWARP_DATA_DIR) / "dragon_res2.ply";
+  if (!fs::exists(dragon)) GTEST_SKIP() << "no " << dragon;
+  Scene scene = example("study/dragon_twist.json");
+  scene.mesh = dragon;
+  scene.boxes[0].implicit.resolution = 384;
+  const fs::path dir = fresh_dir("cancel");
+  BakeCache cache(dir);
+  BakeSession session(&cache);
+  const MeshPtr mesh = session.mesh(scene.mesh);
+
+  std::atomic<bool> started{false};
+  Interrupter interrupter([&](const std::string&, double) { started = true; }, 0.0);
+  std::chrono::steady_clock::time_point cancelled_at, returned_at;
+  std::thread canceller([&] {
+    while (!started) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    cancelled_at = std::chrono::steady_clock::now();
+    interrupter.cancel();
+  });
+  bool threw = false;
+  try {
+    session.bake(make_job(scene, 0, mesh), &interrupter);
+  } catch (const Cancelled&) {
+    threw = true;
   }
+  returned_at = std::chrono::steady_clock::now();
+  canceller.join();
+  ASSERT_TRUE(threw) << "the bake finished before it was cancelled";
+  const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
+  std::printf("[figures] distance grid 384^3 of the dragon: cancel returned after %.1f ms\n", ms);
+#if RAYWARP_UNDER_SANITIZER
+  EXPECT_LT(ms, 1000.0);  // the sanitizers slow every poll's chunk of work several-fold
+#else
+  EXPECT_LT(ms, 100.0);
+#endif
+  EXPECT_EQ(session.counters().baked(), 0);
+  EXPECT_EQ(session.memory_bytes(), 0u);
+  EXPECT_EQ(files_in(dir), 0);  // no cache entry, no temporary file
+
+  // The next job starts at once and completes.
+  scene.boxes[0].implicit.resolution = 64;
+  scene.boxes[0].deformation_resolution = raywarp::testing::kSmallGrid;
+  const BakedBox next = session.bake(make_job(scene, 0, mesh));
+  EXPECT_EQ(session.counters().distance_grid, 1);
+  EXPECT_EQ(next.report.stage(Stage::DistanceGrid)->resolution.maxCoeff(), 64 + 4);
+  EXPECT_GE(files_in(dir), 2);
+  fs::remove_all(dir);
 }
 
-TEST(Bake, BendWithinInterpolationBound) {
+// Every stage of a bake polls: cancelled as soon as it reports, each throws Cancelled within
+// 100 ms and leaves nothing in the session.
+TEST(BakeJob, EveryStageCancelsPromptly) {
   struct Case {
-    Eigen::Vector3d h;
-    Axis axis;
-    double angle_deg;
-    int a, b;  // limit axis and bend direction of `axis` (bend.h)
+    std::string scene, stage;
+    std::function<void(Scene&)> edit;
+    long before = 0;  // stages that finish before the cancelled one
   };
-  for (const Case& c :
-       {Case{{0.8, 0.3, 0.4}, Axis::Z, 120.0, 0, 1}, Case{{0.3, 0.25, 0.7}, Axis::X, -150.0, 2, 1},
-        Case{{0.2, 0.5, 0.6}, Axis::Y, 180.0, 2, 0}}) {
-    const auto bend = make_bend(c.h, c.axis, c.angle_deg);
-    const DeformationTexture texture = bake_deformation(*bend, c.h, 64);
-    const double s = texture.grid.voxel();
-    const double k = std::abs(c.angle_deg * kDeg / (2.0 * c.h[c.a]));
-    const double rho_lo = 1.0 / k - c.h[c.b] - s / std::sqrt(2.0);
-    ASSERT_GT(rho_lo, 0.0) << "the case must not fold";
-    // |D(F(p))| = |p - F(p)| <= |q| + |q'|, each at most L + |h| from the pivot.
-    const double slack = kFloatRounding * 2.0 * (2.0 * c.h[c.a] + c.h.norm()) + 1e-14;
-    Eigen::Vector3d bound = Eigen::Vector3d::Constant(slack);
-    bound[c.a] += s * s / 8.0 * 2.0 / (k * rho_lo * rho_lo);
-    bound[c.b] += s * s / 8.0 / rho_lo;
-    EXPECT_LE(worst_error_ratio(*bend, c.h, texture, bound), 1.0) << bend->describe();
-  }
-}
-
-// Textures of extreme deformations stay finite (bake_deformation throws otherwise, and this
-// checks every texel again), are valid at F(centre) and invalid beyond the padding, and cover
-// F(box) with at least half a texel to spare.
-TEST(Bake, ExtremeCasesAreFiniteAndFlagged) {
-  struct Case {
-    Eigen::Vector3d h;
-    std::unique_ptr<Deformer> deformer;
+  const std::vector<Case> cases = {
+      {"bunny_twist.json", "distance", [](Scene&) {}},
+      {"bunny_twist.json", "sign", [](Scene&) {}},
+      {"bunny_twist.json", "deformation texture",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 256; }, 1},
+      // A stage is cancelled at its first poll, so the stages before it run at the defaults
+      // (a 256 texture there only lengthened the run, most under the sanitizers).
+      {"bunny_twist.json", "deformation texture: error", [](Scene&) {}, 1},
+      {"bunny_twist.json", "deformation texture: inverse residual", [](Scene&) {}, 1},
+      {"bunny_twist.json", "folds", [](Scene&) {}, 1},
+      {"bunny_control_points.json", "deformation texture",
+       [](Scene& s) { s.boxes[0].deformation_resolution = 128; }, 1},
+      {"bunny_peel.json", "alpha map", [](Scene& s) { s.boxes[0].alpha_resolution = 256; }, 2},
+      {"bunny_twist.json", "step bounds", [](Scene& s) { s.render.sampling = Sampling::Bounded; },
+       2},
+      {"bunny_twist.json", "depth cube",
+       [](Scene& s) {
+         s.boxes[0].implicit.type = "depth_cube";
+         s.boxes[0].implicit.resolution = 2048;
+       }},
   };
-  Case cases[] = {
-      {{0.3, 1.0, 0.3}, make_twist({0.3, 1.0, 0.3}, Axis::Y, 3600.0)},  // ten turns
-      {{1.0, 0.2, 0.3}, make_bend({1.0, 0.2, 0.3}, Axis::Z, 359.0)},
-      {{0.5, 0.4, 0.6}, make_bend({0.5, 0.4, 0.6}, Axis::X, 1e-4)},
-      {{1.0, 1.0, 0.5}, make_bend({1.0, 1.0, 0.5}, Axis::Z, 180.0)},  // folds: R = 2 / pi < 1
-  };
-  std::mt19937_64 rng(12);
   for (const Case& c : cases) {
-    const Deformer& deformer = *c.deformer;
-    const DeformationTexture texture = bake_deformation(deformer, c.h, 32);
-    const Grid3<Eigen::Vector4f>& grid = texture.grid;
-    for (const Eigen::Vector4f& texel : grid.data)
-      ASSERT_TRUE(texel.allFinite()) << deformer.describe();
-    EXPECT_EQ(grid.sample(deformer.forward(Eigen::Vector3d::Zero())).w(), 1.0)
-        << deformer.describe();
-    const Eigen::Vector3d far = grid.upper() + 10.0 * grid.extent();
-    EXPECT_EQ(grid.sample(far).w(), 0.0) << deformer.describe();
-    EXPECT_EQ(grid.sample(grid.origin - grid.extent()).w(), 0.0) << deformer.describe();
-    for (int n = 0; n < 2000; ++n) {
-      const Eigen::Vector3d p_def = deformer.forward(random_point(rng, c.h));
-      const Eigen::Vector3d margin = 0.5 * grid.spacing;
-      EXPECT_TRUE(((p_def - grid.origin).array() >= margin.array()).all() &&
-                  ((grid.upper() - p_def).array() >= margin.array()).all())
-          << deformer.describe() << ": F(p) = " << p_def.transpose() << " is not covered";
+    Scene scene = small_example(c.scene);
+    c.edit(scene);
+    BakeSession session;
+    const MeshPtr mesh = session.mesh(scene.mesh);
+    std::chrono::steady_clock::time_point cancelled_at{};
+    Interrupter* self = nullptr;
+    Interrupter interrupter(
+        [&](const std::string& stage, double) {
+          if (stage == c.stage && !self->cancelled()) {
+            cancelled_at = std::chrono::steady_clock::now();
+            self->cancel();
+          }
+        },
+        0.0);
+    self = &interrupter;
+    bool threw = false;
+    try {
+      session.bake(make_job(scene, 0, mesh), &interrupter);
+    } catch (const Cancelled&) {
+      threw = true;
     }
-    EXPECT_GT(texture.bake_seconds, 0.0);
-  }
-}
-
-// For twists and bends F is affine along the two box axes other than a at fixed p_a (a rotation,
-// resp. q_b -> q' linear), so the extremes of F(box) lie on the four box edges along a. A dense
-// sampling of those edges must fall within deformed_bounds up to its refinement tolerance:
-// deformed_bounds stops when a halving of the lattice grows the bounds by <= 1e-4 of the
-// diagonal and leaves ~1/3 of that unseen, or stops at 1024 intervals, where the worst case
-// here, a 16-turn twist, has node angles repeating every 64 nodes: a sagitta of
-// r (1 - cos(pi / 64)) ~ 1.2e-3 r ~ 2e-4 of the diagonal. 1e-3 of the diagonal holds both. The
-// 16 turns alias with the first lattice (the nodes of an edge take only 4 angles, missing 30% of
-// r): the refinement must find it.
-TEST(Bake, DeformedBoundsHoldTheDeformedBox) {
-  struct Case {
-    Eigen::Vector3d h;
-    std::unique_ptr<Deformer> deformer;
-    int a;
-  };
-  Case cases[] = {
-      {{0.3, 1.0, 0.2}, make_twist({0.3, 1.0, 0.2}, Axis::Y, 3570.0), 1},
-      {{0.3, 1.0, 0.3}, make_twist({0.3, 1.0, 0.3}, Axis::Y, 16 * 360.0), 1},
-      {{1.0, 0.2, 0.3}, make_bend({1.0, 0.2, 0.3}, Axis::Z, 331.0), 0},
-      {{0.4, 0.5, 0.9}, make_bend({0.4, 0.5, 0.9}, Axis::X, -250.0), 2},
-  };
-  std::mt19937_64 rng(13);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  for (const Case& c : cases) {
-    const Eigen::AlignedBox3d bounds = deformed_bounds(*c.deformer, c.h);
-    const double tol = 1e-3 * bounds.diagonal().norm();
-    Eigen::AlignedBox3d edges;
-    for (int n = 0; n < 100000; ++n) {
-      Eigen::Vector3d p;
-      for (int i = 0; i < 3; ++i) p[i] = c.h[i] * (unit(rng) < 0.0 ? -1.0 : 1.0);
-      p[c.a] = c.h[c.a] * unit(rng);
-      edges.extend(c.deformer->forward(p));
+    const auto returned_at = std::chrono::steady_clock::now();
+    ASSERT_TRUE(threw) << c.scene << ": stage \"" << c.stage << "\" never reported";
+    const double ms = std::chrono::duration<double, std::milli>(returned_at - cancelled_at).count();
+    std::printf("[figures] %s, cancelled in \"%s\": returned after %.2f ms\n", c.scene.c_str(),
+                c.stage.c_str(), ms);
+#if RAYWARP_UNDER_SANITIZER
+    EXPECT_LT(ms, 1000.0) << c.stage;
+#else
+    EXPECT_LT(ms, 100.0) << c.stage;
+#endif
+    // What finished before the cancel stays; the cancelled stage left nothing.
+    EXPECT_EQ(session.counters().baked(), c.before) << c.stage;
+    if (c.before == 0) {
+      EXPECT_EQ(session.memory_bytes(), 0u) << c.stage;
     }
-    EXPECT_LE((bounds.min() - edges.min()).maxCoeff(), tol) << c.deformer->describe();
-    EXPECT_LE((edges.max() - bounds.max()).maxCoeff(), tol) << c.deformer->describe();
-    const Eigen::AlignedBox3d padded = deformed_bounds(*c.deformer, c.h, 0.25);
-    EXPECT_LE((padded.min() - (bounds.min().array() - 0.25).matrix()).norm(), 1e-15);
-    EXPECT_LE((padded.max() - (bounds.max().array() + 0.25).matrix()).norm(), 1e-15);
   }
 }
 
-TEST(Bake, GridIsResolutionTexelsAlongTheLongestSide) {
-  const Eigen::Vector3d h(0.5, 0.8, 0.35);
-  const auto twist = make_twist(h, Axis::Y, 90.0);
-  const DeformationTexture texture = bake_deformation(*twist, h, 40);
-  EXPECT_EQ(texture.grid.dims.maxCoeff(), 40);
-  EXPECT_EQ(texture.grid.size(), static_cast<size_t>(texture.grid.dims.prod()));
-}
-
-TEST(Bake, CountsPerAxisPadOneTexelEachSide) {
-  const Eigen::Vector3d h(0.5, 0.8, 0.35);
-  const auto twist = make_twist(h, Axis::Y, 90.0);
-  const Eigen::Vector3i counts(20, 7, 33);
-  const DeformationTexture texture = bake_deformation(*twist, h, counts, false);
-  EXPECT_EQ(texture.grid.dims, counts);
-  const Eigen::AlignedBox3d bounds = deformed_bounds(*twist, h);
-  for (int a = 0; a < 3; ++a) {
-    EXPECT_NEAR(texture.grid.spacing[a], bounds.sizes()[a] / (counts[a] - 2), 1e-12);
-    EXPECT_NEAR(texture.grid.origin[a], bounds.min()[a] - texture.grid.spacing[a], 1e-12);
-    EXPECT_NEAR(texture.grid.upper()[a], bounds.max()[a] + texture.grid.spacing[a], 1e-12);
-  }
-  EXPECT_THROW(bake_deformation(*twist, h, Eigen::Vector3i(2, 8, 8), false), Error);
-}
-
-TEST(Bake, CountsForErrorShareTheTargetAmongTheAxesAboveTheirFloor) {
-  // Only x errs: it alone is refined, by sqrt(4) for a quarter of the error.
-  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.4, 0, 0}, 0.1, {10, 10, 10}),
-            Eigen::Vector3i(20, 10, 10));
-  // Two equal errors: each takes half the target.
-  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.4, 0.4, 0}, 0.1, {10, 10, 10}),
-            Eigen::Vector3i(29, 29, 10));
-  // Already within: the floor.
-  EXPECT_EQ(counts_for_error({10, 10, 10}, {0.01, 0.01, 0.01}, 0.1, {10, 10, 10}),
-            Eigen::Vector3i(10, 10, 10));
-  const Eigen::Vector3i n = counts_for_error({10, 10, 10}, {0.3, 0.2, 0.1}, 0.05, {4, 4, 4});
-  double sum = 0;
-  for (int a = 0; a < 3; ++a) sum += (a == 0 ? 0.3 : a == 1 ? 0.2 : 0.1) * 100.0 / (n[a] * n[a]);
-  EXPECT_LE(sum, 0.05);
-  EXPECT_GT(sum, 0.04);  // not wastefully fine
-}
-
-// A twist interpolates exactly across its axis (a rotation is linear in x, z at each y): its
-// error lies along the axis, which the per-axis estimate sees and the automatic layout refines
-// alone.
-TEST(Bake, AutoLayoutRefinesOnlyTheAxisThatErrs) {
-  const Eigen::Vector3d h(1.0, 0.2, 1.0);  // a slab: 720 degrees over 0.4
-  const auto twist = make_twist(h, Axis::Y, 720.0);
-  const double voxel = 2.0 / 128, target = kAutoErrorVoxels * voxel;
-  const DeformationTexture fixed = bake_deformation(*twist, h, kAutoFloorResolution);
-  const double fixed_error = deformation_texture_error(*twist, fixed);
-  ASSERT_GT(fixed_error, 4 * target) << "the case must need the refinement";
-  const Eigen::Vector3d per_axis = axis_interpolation_errors(*twist, fixed);
-  EXPECT_LT(per_axis.x(), 1e-3 * per_axis.y());
-  EXPECT_LT(per_axis.z(), 1e-3 * per_axis.y());
-  EXPECT_GT(per_axis.sum(), 0.5 * fixed_error);
-  EXPECT_LT(per_axis.sum(), 2.0 * fixed_error);
-
-  const AutoDeformation a = bake_deformation_auto(*twist, h, target, std::uint64_t(64) << 20,
-                                                  kAutoFloorResolution, false);
-  std::printf(
-      "720 degrees over 0.4: fixed %dx%dx%d, error %.3g; auto %dx%dx%d, error %.3g "
-      "(target %.3g), %d bakes, %.2f s\n",
-      fixed.grid.dims.x(), fixed.grid.dims.y(), fixed.grid.dims.z(), fixed_error,
-      a.texture.grid.dims.x(), a.texture.grid.dims.y(), a.texture.grid.dims.z(), a.error, target,
-      a.choice.bakes, a.texture.bake_seconds);
-  EXPECT_LE(a.error, target);
-  EXPECT_NEAR(a.error, deformation_texture_error(*twist, a.texture), 1e-15);
-  EXPECT_FALSE(a.choice.budget_bound);
-  EXPECT_EQ(a.texture.grid.dims.x(), fixed.grid.dims.x());
-  EXPECT_EQ(a.texture.grid.dims.z(), fixed.grid.dims.z());
-  EXPECT_GT(a.texture.grid.dims.y(), 3 * fixed.grid.dims.y());
-  EXPECT_LE(a.texture.grid.size() * 16, std::uint64_t(16) << 20);
-}
-
-TEST(Bake, AutoLayoutKeepsTheFloorWhenItSuffices) {
-  const Eigen::Vector3d h(0.5, 0.8, 0.35);
-  const auto bend = make_bend(h, Axis::Y, 30.0);
-  const AutoDeformation a =
-      bake_deformation_auto(*bend, h, 0.01, std::uint64_t(64) << 20, kAutoFloorResolution, false);
-  const DeformationTexture fixed = bake_deformation(*bend, h, kAutoFloorResolution);
-  EXPECT_EQ(a.choice.bakes, 1);
-  EXPECT_EQ(a.texture.grid.dims, fixed.grid.dims);
-  EXPECT_EQ(a.texture.grid.spacing, fixed.grid.spacing);
-  EXPECT_EQ(a.texture.grid.data, fixed.grid.data);
-}
-
-TEST(Bake, AutoLayoutStaysWithinItsBudget) {
-  const Eigen::Vector3d h(1.0, 0.2, 1.0);
-  const auto twist = make_twist(h, Axis::Y, 720.0);
-  const std::uint64_t budget = std::uint64_t(1) << 20;
-  const AutoDeformation a =
-      bake_deformation_auto(*twist, h, 1e-4, budget, kAutoFloorResolution, false);
-  EXPECT_TRUE(a.choice.budget_bound);
-  EXPECT_LE(a.texture.grid.size() * 16, budget);
-  EXPECT_GT(a.error, 1e-4);  // and says so: the error is measured, not the target's
-  // With the lower-face shift the grown grid still fits.
-  const AutoDeformation c =
-      bake_deformation_auto(*twist, h, 1e-4, budget, kAutoFloorResolution, true);
-  EXPECT_LE(c.texture.grid.size() * 16, budget);
-}
-
-// The alpha map's automatic layout: from the cubic floor up until A's error within the band
-// around the cut face is at most the target, within its budget, for a box cut's wedge (kinks
-// along its edge, where the error falls as 1 / n) and an incision; never worse than the floor
-// (a refinement that does not help is not kept).
-TEST(Bake, AutoAlphaMeetsItsTarget) {
-  const Eigen::Vector3d h(0.5, 0.8, 0.35);
-  BoxCutParams params;
-  params.wedge_axis = Axis::Z;
-  params.wedge_from_deg = 10.0;
-  params.wedge_angle_deg = 90.0;
-  const auto cut = make_box_cut(h, params);
-  const auto incision = make_incision(h, Axis::X, Face{Axis::Y, 1}, 0.9, 0.2);
-  const Eigen::AlignedBox3d region(-1.1 * h, 1.1 * h);
-  const double voxel = 2.0 * h.maxCoeff() / 256, target = kAutoErrorVoxels * voxel;
-  const double band = kAlphaBandVoxels * voxel;
-  const std::vector<const Deformer*> deformers = {cut.get(), incision.get()};
-  for (const Deformer* d : deformers) {
-    const AlphaMap floor = bake_alpha(*d, region, 16);
-    const double floor_error = alpha_map_error(*d, floor, band);
-    const AutoAlpha a = bake_alpha_auto(*d, region, target, band, std::uint64_t(16) << 20, 16);
-    std::printf(
-        "%s: alpha at the floor (16) error %.3g; auto %dx%dx%d error %.3g (target %.3g), "
-        "%d bakes\n",
-        d->describe().c_str(), floor_error, a.map.grid.dims.x(), a.map.grid.dims.y(),
-        a.map.grid.dims.z(), a.error, target, a.choice.bakes);
-    EXPECT_TRUE(a.choice.automatic);
-    EXPECT_LE(a.error, floor_error);
-    EXPECT_NEAR(a.error, alpha_map_error(*d, a.map, band), 1e-12);
-    EXPECT_LE(a.map.grid.size() * 4, std::uint64_t(16) << 20);
-    ASSERT_GT(floor_error, target) << "the case must need the refinement";
-    EXPECT_LE(a.error, target);
-    for (int axis = 0; axis < 3; ++axis)  // the region exactly, texels per axis
-      EXPECT_NEAR(a.map.grid.extent()[axis], region.sizes()[axis], 1e-12);
+TEST(BakeJob, CutReportsItsAlphaStageAndWarningsAreCoded) {
+  const Scene scene = example("bunny_peel.json");
+  BakeSession session;
+  const BakedBox box = session.bake(make_job(scene, 0, session.mesh(scene.mesh)));
+  const StageReport* alpha = box.report.stage(Stage::Alpha);
+  ASSERT_NE(alpha, nullptr);
+  EXPECT_EQ(alpha->resolution, box.textures.alpha.grid.dims);
+  // The automatic layout: from the cubic floor up, within its target and budget.
+  const BakeReport& r = box.report;
+  EXPECT_GE(alpha->resolution.maxCoeff(), kAutoAlphaFloorResolution);
+  EXPECT_TRUE(r.alpha_choice.automatic);
+  EXPECT_LE(r.alpha_error, r.alpha_choice.target);
+  EXPECT_DOUBLE_EQ(r.alpha_choice.target, kAutoErrorVoxels * r.voxel);
+  EXPECT_LE(alpha->bytes, r.alpha_choice.budget_bytes);
+  // An explicit resolution wins, and its error is measured too.
+  Scene fixed = scene;
+  fixed.boxes[0].alpha_resolution = 64;
+  const BakedBox f = session.bake(make_job(fixed, 0, session.mesh(scene.mesh)));
+  EXPECT_EQ(f.report.stage(Stage::Alpha)->resolution.maxCoeff(), 64);
+  EXPECT_FALSE(f.report.alpha_choice.automatic);
+  EXPECT_GT(f.report.alpha_error, 0.0);
+  for (const BakeWarning& w : box.report.warnings) {
+    EXPECT_FALSE(w.code.empty());
+    EXPECT_FALSE(w.message.empty());
   }
 }
 
-// Not a check: the bake times the report quotes (96 texels along the longest side).
-TEST(Bake, Times96) {
-  const Eigen::Vector3d h(0.5, 0.8, 0.35);
-  const auto twist = make_twist(h, Axis::Y, 360.0);
-  const auto bend = make_bend(h, Axis::Y, 120.0);
-  for (const Deformer* deformer : {twist.get(), bend.get()}) {
-    const DeformationTexture texture = bake_deformation(*deformer, h, 96);
-    std::printf("%s: %d x %d x %d texels baked in %.3f s\n", deformer->describe().c_str(),
-                texture.grid.dims.x(), texture.grid.dims.y(), texture.grid.dims.z(),
-                texture.bake_seconds);
+bool has_warning(const BakeReport& r, const std::string& code) {
+  for (const BakeWarning& w : r.warnings)
+    if (w.code == code) return true;
+  return false;
+}
+
+// A box beside the mesh deforms nothing and says so; one inside the mesh (no triangle in it)
+// holds the mesh's inside, and one the surface crosses holds the surface.
+TEST(BakeJob, ABoxThatHoldsNoPartOfTheMeshWarns) {
+  Scene scene = example("bunny_cut_solid.json");
+  BakeSession session;
+  const MeshPtr mesh = session.mesh(scene.mesh);
+  const Eigen::AlignedBox3d bounds = mesh->stats.bounds;
+  Box beside;
+  beside.half_extents = 0.1 * bounds.sizes();
+  beside.centre = bounds.max() + 0.5 * bounds.sizes();
+  EXPECT_FALSE(box_holds_mesh(mesh->mesh, beside));
+  scene.boxes[0].box = beside;
+  scene.boxes[0].implicit.resolution = 16;
+  EXPECT_TRUE(has_warning(session.bake(make_job(scene, 0, mesh)).report, "empty_box"));
+
+  Box crossing = beside;
+  crossing.centre = bounds.center();
+  crossing.half_extents = 0.6 * bounds.sizes();
+  EXPECT_TRUE(box_holds_mesh(mesh->mesh, crossing));
+  // A small box around a point well inside the bunny's body (winding number 1 there).
+  Box inside;
+  inside.centre = mesh->mesh.V.colwise().mean().transpose();
+  inside.half_extents = Eigen::Vector3d::Constant(1e-4 * bounds.diagonal().norm());
+  ASSERT_GT(WindingNumber(mesh->mesh).exact(inside.centre), 0.5);
+  EXPECT_TRUE(box_holds_mesh(mesh->mesh, inside));
+}
+
+TEST(BakeJob, ErrorsNameTheBox) {
+  Scene scene = example("bunny_twist.json");
+  scene.boxes[0].deformer.type = "stretch";
+  scene.boxes[0].deformer.factor = 50;  // beyond what a 5.8-unit box allows
+  BakeSession session;
+  try {
+    session.bake(make_job(scene, 0, session.mesh(scene.mesh)));
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("boxes[0].deformer.stretch factor = 50"),
+              std::string::npos)
+        << e.what();
   }
 }
 

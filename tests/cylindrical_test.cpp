@@ -1,8 +1,8 @@
 // Cylindrical texture coordinates (library/cylindrical.h): the change of coordinates and its
 // inverse, the periodic read that mirrors GL_REPEAT along the angle, the bakes of D and A over
 // (angle, radius, height) measured against the deformers' exact inverse and alpha, a twist of any
-// number of turns held by a texture two texels around, the groove's region (deformers/groove.h),
-// and the scene reader's "mapping" field with its refusals.
+// number of turns held by a texture two texels around, the groove's ring in a cylindrical alpha
+// map, and the scene reader's "mapping" field with its refusals.
 #include "library/cylindrical.h"
 
 #include <gtest/gtest.h>
@@ -211,30 +211,6 @@ TEST(Cylindrical, AutoLayoutsMeetTheirTargets) {
   EXPECT_LE(a.error, target);
   EXPECT_EQ(a.map.grid.dims.x(), coarse.x());
   EXPECT_NEAR(a.error, cylindrical_alpha_error(*groove, a.map, 1, band), 1e-12);
-}
-
-TEST(Groove, AlphaIsTheSignedDistanceOfItsRing) {
-  const auto g = make_groove(kHalf, Axis::Y, 0.6, 0.5);
-  EXPECT_TRUE(g->has_cut());
-  EXPECT_TRUE(g->moves_nothing());
-  // Removed: farther than 0.6 from the y axis within |y| <= 0.25.
-  EXPECT_NEAR(g->alpha(Eigen::Vector3d(0.9, 0.0, 0.0)), 0.25, 1e-12);
-  EXPECT_NEAR(g->alpha(Eigen::Vector3d(0.0, 0.1, 0.8)), 0.15, 1e-12);
-  EXPECT_NEAR(g->alpha(Eigen::Vector3d(0.3, 0.0, 0.4)), -0.1, 1e-12);
-  EXPECT_NEAR(g->alpha(Eigen::Vector3d(0.9, 0.5, 0.0)), -0.25, 1e-12);
-  const Eigen::Vector3d p(0.3, -0.2, -0.9);
-  EXPECT_EQ(g->forward(p), p);
-  EXPECT_EQ(g->inverse(p), p);
-  // Bad parameters name themselves.
-  EXPECT_THROW(make_groove(kHalf, Axis::Y, 0.0, 0.5), Error);
-  try {
-    make_groove(kHalf, Axis::Y, 0.6, 3.5);
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("groove width = 3.5: must be in (0, 2 h_y = 3]"),
-              std::string::npos)
-        << e.what();
-  }
 }
 
 // The groove's alpha depends on radius and height only: a cylindrical alpha map two texels around
