@@ -23,14 +23,15 @@
 #include "base/error.h"
 #include "base/format.h"
 #include "bench/marked_block.h"
-#include "cli/pipeline.h"
 #include "deformers/bend.h"
 #include "deformers/twist.h"
 #include "gl/context.h"
+#include "gl/frame_timing.h"
 #include "gl/renderer.h"
 #include "library/deformation_bake.h"
 #include "library/implicit.h"
 #include "library/mesh.h"
+#include "library/prepare.h"
 
 using namespace raywarp;
 

@@ -12,11 +12,11 @@
 #include "base/clock.h"
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/gif.h"
 #include "library/mesh_pairs.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "library/texture_map.h"
 

@@ -7,56 +7,13 @@
 #include "base/error.h"
 #include "base/format.h"
 #include "cli/engine_bundles.h"
-#include "cli/pipeline.h"
 #include "cli/viewer_assets.h"
+#include "gl/renderer.h"
+#include "library/prepare.h"
 
 namespace raywarp {
 
 namespace fs = std::filesystem;
-
-nlohmann::json export_animation(const Scene& scene, size_t index) {
-  const BoxSpec& b = scene.boxes[index];
-  if (!b.then.empty() || b.mapping.cylindrical || scene.render.sampling == Sampling::Bounded)
-    return {};
-  const char* axes = "xyz";
-  if (b.deformer.type == "twist" && b.deformer.angle_deg != 0.0) {
-    const int a = b.deformer.axis;
-    return {{"parameter", "angle_deg"},
-            {"baked", b.deformer.angle_deg},
-            {"axis", std::string(1, axes[a])},
-            {"lipschitz_add", 1.0},
-            {"texture_map",
-             "a twist of angle t between 0 and the baked angle A (of A's sign) is the baked twist "
-             "read at M p': s = t / A, M the identity but for row `axis`: M[axis][axis] = s, "
-             "M[axis][3] = s - 1 (box units; object units: h_axis (s - 1)), a scale along the axis "
-             "about the box's lower face; add lipschitz_add to render.lipschitz"}};
-  }
-  if (b.deformer.type == "peel") {
-    const int a = 3 - b.deformer.axis - b.deformer.from_axis;
-    return {{"parameter", "hinge"},
-            {"baked", b.deformer.hinge},
-            {"axis", std::string(1, axes[a])},
-            {"lipschitz_add", 0.0},
-            {"texture_map",
-             "a peel of hinge g at or above the baked hinge b is the baked peel read at M p': M "
-             "the identity but for M[axis][3] = -(g - b) / h_axis (box units; object units: "
-             "-(g - b)), a translation along the peel direction `axis`"}};
-  }
-  return {};
-}
-
-BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh) {
-  // A box an engine animates through M has D's texel centres on its lower faces, as raywarp
-  // render --frames bakes it.
-  BakeJob job = make_job(scene, index, std::move(mesh), !export_animation(scene, index).is_null());
-  job.texture_bits = 32;
-  // The step bounds where the box can use them (a cylindrical texture has none: no Lipschitz
-  // bound of its D is measured, and bounded tracing refuses it).
-  // A depth cube has none either: its |f| bounds no distance.
-  if (!scene.boxes[index].mapping.cylindrical && job.spec.implicit.type != "depth_cube")
-    job.sampling = Sampling::Bounded;
-  return job;
-}
 
 namespace {
 

@@ -13,18 +13,6 @@
 
 namespace raywarp {
 
-// The job that bakes box `index` of `scene` for export: 32-bit textures (the formats quantise
-// them themselves), the step bounds baked where a box can use them, and a distance grid where the
-// scene asks for a depth cube (exports carry the grid, so a consumer can ray cast).
-BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh);
-
-// How an engine animates box `index` through the map M of eq. 2 with no bake, as `raywarp render
-// --frames` does (library/texture_map.h): for a box whose only deformer is a twist, its angle
-// between 0 and the baked one; for a peel, its hinge at or above the baked one. The sidecar's
-// "animation": {parameter, baked, axis, lipschitz_add, texture_map (the rule, in words)}; null
-// for a box that cannot be animated so (a composition, a cylindrical texture, bounded sampling).
-nlohmann::json export_animation(const Scene& scene, size_t index);
-
 // Bakes every box of the scene file `scene` (or only box `only`, when >= 0) in `session` and
 // exports each into `out` as SCENESTEM_boxI.*, with the bundles of `engines` (parse_engines'
 // names, cli/engine_bundles.h); logs progress and each box's report. Every box is baked and

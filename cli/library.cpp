@@ -17,12 +17,12 @@
 #include "base/version.h"
 #include "cli/engine_bundles.h"
 #include "cli/export.h"
-#include "cli/pipeline.h"
 #include "cli/viewer_assets.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/bake_cache.h"
 #include "library/image.h"
+#include "library/prepare.h"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-function"

@@ -15,7 +15,6 @@
 #include "cli/animate.h"
 #include "cli/export.h"
 #include "cli/library.h"
-#include "cli/pipeline.h"
 #include "cli/simulate.h"
 #include "cli/stability.h"
 #include "cli/stiffness.h"
@@ -26,6 +25,7 @@
 #include "gl/renderer.h"
 #include "gl/tet_scene.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 
 namespace fs = std::filesystem;

@@ -8,11 +8,11 @@
 
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/pipeline.h"
 #include "deformers/registry.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/gif.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 
 namespace raywarp {

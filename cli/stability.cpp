@@ -13,9 +13,9 @@
 
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/pipeline.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

@@ -51,7 +51,7 @@ struct ExportSource {
   std::string mesh_hash;   // of its bytes (bake cache hash)
   std::string input_hash;  // export_input_hash
   // How an engine animates the box through the map M with no bake (null: it cannot), written to
-  // the sidecar as it is (cli/export.h, export_animation).
+  // the sidecar as it is (export_animation).
   nlohmann::json animation;
 };
 // The source of box `index` of `scene`, whose parsed file is `document`.
@@ -104,5 +104,17 @@ BoxTextures import_box(const std::filesystem::path& sidecar, ExportFormat format
 TextureVolume orientation_volume();
 // Writes it in every format of `options` into `dir` as orientation.EXT, with orientation.json.
 nlohmann::json export_orientation(const ExportOptions& options, const std::filesystem::path& dir);
+
+// The job that bakes box `index` of `scene` for export: 32-bit textures (the formats quantise
+// them themselves), the step bounds baked where a box can use them, and a distance grid where the
+// scene asks for a depth cube (exports carry the grid, so a consumer can ray cast).
+BakeJob export_job(const Scene& scene, size_t index, MeshPtr mesh);
+
+// How an engine animates box `index` through the map M of eq. 2 with no bake, as `raywarp render
+// --frames` does (library/texture_map.h): for a box whose only deformer is a twist, its angle
+// between 0 and the baked one; for a peel, its hinge at or above the baked one. The sidecar's
+// "animation": {parameter, baked, axis, lipschitz_add, texture_map (the rule, in words)}; null
+// for a box that cannot be animated so (a composition, a cylindrical texture, bounded sampling).
+nlohmann::json export_animation(const Scene& scene, size_t index);
 
 }  // namespace raywarp

@@ -10,10 +10,10 @@
 
 #include "base/error.h"
 #include "cli/animate.h"
-#include "cli/pipeline.h"
 #include "deformers/twist.h"
 #include "library/image.h"
 #include "library/mesh.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "library/bake_cache.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/sanitizer.h"
 

@@ -12,7 +12,6 @@
 #include <sstream>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "deformers/bend.h"
 #include "deformers/box_cut.h"
 #include "deformers/composed.h"
@@ -20,6 +19,7 @@
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

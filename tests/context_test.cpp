@@ -10,9 +10,9 @@
 #include <sstream>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

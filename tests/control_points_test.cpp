@@ -458,7 +458,7 @@ gl::Context& context() {
   return *ctx;
 }
 
-// The box's textures as cli/pipeline.cpp's prepare_scene builds them, for `deformer`.
+// The box's textures as prepare_scene (library/prepare.h) builds them, for `deformer`.
 BoxTextures box_textures(const BunnyScene& s, const Deformer& deformer) {
   const BoxSpec& spec = s.scene.boxes.at(0);
   BoxTextures tex;

@@ -17,11 +17,11 @@
 #include <sstream>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "deformers/box_cut.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

@@ -25,10 +25,10 @@
 #include <tuple>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "library/winding.h"
 #include "tests/mesh_fixtures.h"

@@ -14,8 +14,8 @@
 #include "base/error.h"
 #include "cli/engine_bundles.h"
 #include "cli/export.h"
-#include "cli/pipeline.h"
 #include "library/export.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/temp_folder.h"
 

@@ -30,11 +30,11 @@
 #include "cli/engine_bundles.h"
 #include "cli/engine_shaders.h"
 #include "cli/export.h"
-#include "cli/pipeline.h"
 #include "gl/raycast_tables.h"
 #include "gl/shader_sources.h"
 #include "library/export.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/engine_scenes.h"
 

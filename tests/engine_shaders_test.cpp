@@ -25,13 +25,13 @@
 #include <vector>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/raycast_tables.h"
 #include "gl/renderer.h"
 #include "gl/shader_sources.h"
 #include "library/bake_cache.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "library/texture_map.h"
 #include "tests/engine_scenes.h"

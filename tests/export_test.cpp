@@ -16,10 +16,10 @@
 
 #include "cli/engine_bundles.h"
 #include "cli/export.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/temp_folder.h"
 

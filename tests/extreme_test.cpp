@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

@@ -6,10 +6,10 @@
 #include <cstdio>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

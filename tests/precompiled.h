@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"

@@ -7,12 +7,12 @@
 #include <random>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "deformers/twist.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/deformation_bake.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

@@ -17,8 +17,8 @@
 #include <utility>
 #include <vector>
 
-#include "cli/pipeline.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "verify/reference.h"
 

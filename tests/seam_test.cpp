@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/seam_check.h"
 

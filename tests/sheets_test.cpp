@@ -11,11 +11,11 @@
 #include <random>
 #include <sstream>
 
-#include "cli/pipeline.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
 #include "library/implicit.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/mesh_files.h"
 #include "tests/temp_folder.h"

@@ -19,11 +19,11 @@
 #include <sstream>
 #include <string>
 
-#include "cli/pipeline.h"
 #include "deformers/box_cut.h"
 #include "gl/context.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/seam_check.h"
 #include "verify/reference.h"
@@ -78,7 +78,10 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
   const Scene scene =
       load_scene(std::string(RAYWARP_SOURCE_DIR) + "/examples/zoo/" + name + ".json");
   std::ostringstream log;
-  const PreparedScene prepared = prepare_scene(scene, log);
+  // One session for both bakes below: the bounded one reads the distance grid and D from memory
+  // and bakes only its step bounds.
+  BakeSession session;
+  const PreparedScene prepared = prepare_scene(scene, log, session);
   ASSERT_EQ(prepared.boxes.size(), 1u);
   const BakedBox& box = prepared.boxes[0];
   ASSERT_TRUE(scene.camera.has_value());
@@ -151,7 +154,7 @@ TEST_P(ZooTest, MatchesExactGroundTruthAtDefaults) {
     Scene traced = scene;
     traced.render.sampling = Sampling::Bounded;
     std::ostringstream traced_log;
-    const PreparedScene bounded = prepare_scene(traced, traced_log);
+    const PreparedScene bounded = prepare_scene(traced, traced_log, session);
     gl::Renderer bounded_renderer;
     bounded_renderer.set_mesh(bounded.mesh());
     bounded_renderer.set_boxes(bounded.textures());

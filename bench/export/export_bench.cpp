@@ -10,7 +10,6 @@
 #include <string>
 #include <vector>
 
-#include "cli/export.h"
 #include "library/export.h"
 #include "library/scene.h"
 

@@ -25,10 +25,10 @@
 #include <vector>
 
 #include "base/error.h"
-#include "cli/pipeline.h"
 #include "library/bake.h"
 #include "library/bake_cache.h"
 #include "library/mesh.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 
 using namespace raywarp;

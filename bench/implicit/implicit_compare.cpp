@@ -28,10 +28,11 @@
 
 #include "base/error.h"
 #include "bench/marked_block.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
+#include "gl/frame_timing.h"
 #include "gl/renderer.h"
 #include "library/image.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/mesh_fixtures.h"
 #include "verify/reference.h"

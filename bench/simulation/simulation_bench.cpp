@@ -16,11 +16,12 @@
 
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/pipeline.h"
 #include "gl/context.h"
+#include "gl/frame_timing.h"
 #include "gl/renderer.h"
 #include "gl/surface_mapping_render.h"
 #include "library/deformation_bake.h"
+#include "library/prepare.h"
 #include "library/scene.h"
 #include "library/surface_mapping.h"
 

@@ -1,12 +1,12 @@
-// The command line's view of the library's bake jobs: bakes every box of a scene and prints the
-// report the way `raywarp render` does (mesh, each stage with its size, memory and time, the
-// figures measured on the textures, warnings). The command line, the tests and the benchmarks
-// share this one path; the baking itself is library/bake.h.
+// A scene prepared for rendering: every box baked through the library's bake jobs (library/bake.h),
+// with progress and each box's report written to a log the caller gives, as `raywarp render`
+// prints it (mesh, each stage with its size, memory and time, the figures measured on the
+// textures, warnings). The command line, the editor's tests and the benchmarks share this one
+// path; the library prints nothing on its own.
 #pragma once
 #include <iosfwd>
 #include <string>
 
-#include "gl/renderer.h"
 #include "library/bake.h"
 
 namespace raywarp {
@@ -27,10 +27,5 @@ BakedBox bake_logged(BakeSession& session, const BakeJob& job, std::ostream& log
 // One box's report as the log lines `raywarp render` prints, each prefixed by `tag`.
 void print_report(std::ostream& log, const std::string& tag, const BakedBox& box,
                   const BakeSession& session);
-
-// Median frame time (ms) of `frames` frames of width x height after one warm-up frame, which
-// pays for llvmpipe's compilation of the shader variants at their first draw.
-double frame_median(gl::Renderer& renderer, const Camera& camera, int width, int height,
-                    const RenderSettings& settings, int frames);
 
 }  // namespace raywarp

@@ -1,4 +1,4 @@
-#include "cli/pipeline.h"
+#include "library/prepare.h"
 
 #include <chrono>
 #include <cmath>
@@ -212,18 +212,6 @@ PreparedScene prepare_scene(const Scene& scene, std::ostream& log, BakeCache* ca
                             bool centre_on_lower_faces) {
   BakeSession session(cache);
   return prepare_scene(scene, log, session, centre_on_lower_faces);
-}
-
-double frame_median(gl::Renderer& renderer, const Camera& camera, int width, int height,
-                    const RenderSettings& settings, int frames) {
-  gl::FrameStats stats;
-  renderer.render(camera, width, height, settings, &stats);
-  std::vector<double> ms;
-  for (int f = 0; f < frames; ++f) {
-    renderer.render(camera, width, height, settings, &stats);
-    ms.push_back(stats.milliseconds);
-  }
-  return median(ms);
 }
 
 }  // namespace raywarp
