@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Progressive animation: a twist's angle animated by the texture map M of eq. 2 bakes once and
 // each frame matches the exact ground truth of the twist at that frame's angle; other
 // parameters re-bake every frame, reading unchanged textures from the bake cache.

@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // The automatic layout of the deformation texture (deformation.resolution "auto", the default):
 // the extreme twist of 720 degrees in a slab a fifth of the bunny's height, at defaults, against
 // the exact ground truth; the same scene at the cubic layout that was the fixed default

@@ -1,3 +1,4 @@
+// Named after no one source: one sampler's guarantee across the step bounds and the ray caster.
 // The `bounded` tracer's guarantee (library/textures.h, StepBounds): its Lipschitz bounds hold for
 // the interpolated textures, and on random rays through random twists and bends of a thin shell
 // it misses no hit that a dense march (1/64 voxel) over the same textures finds, and stops no

@@ -1,3 +1,4 @@
+// Named after no one source: it runs the raywarp binary as a user does, every command.
 // The `raywarp` command on bad input: each case must exit non-zero, print a message naming
 // the file, the field and what is allowed, and leave no output file behind.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Composition: several deformers in one box (F = F_n o ... o F_1, D baked from the composed
 // inverse) and several boxes in one scene (each its own textures and ray-cast pass), checked
 // against the exact ground truth: the mesh subdivided, split at each box's faces, mapped by the

@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of cuts (Correa & Silver 2007, section 5): the GL render (raster pass + ray-cast
 // pass through OSMesa) against references independent of every grid, with the foundation's
 // thresholds (silhouette IoU >= 0.98, at most 2 % of the commonly covered pixels off by more

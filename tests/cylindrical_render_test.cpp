@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of cylindrical textures (library/cylindrical.h): the GL render (raster pass +
 // ray-cast pass through OSMesa) of a box whose D and A are stored over (angle, radius, height),
 //   - a twist of 720 degrees (examples/bunny_twist720_cylindrical.json) against the exact ground

@@ -1,3 +1,4 @@
+// Named after no one source: a contract every type of the registry keeps.
 // The deformer contract suite: every registered type (deformers/registry.h), with every one of
 // its examples, built through the registry exactly as a scene builds it (read_deformer, then
 // make_deformer), must keep the contract of deformers/deformer.h:

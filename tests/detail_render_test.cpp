@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of added detail (deformers/detail.h, deformers/composed.h): the GL render (raster
 // pass + ray-cast pass through OSMesa) of examples/bunny_twist_detail.json, a twist by 360
 // degrees with detail added to its texture,

@@ -2,7 +2,8 @@
 // source file names a symbol that is in that file, so that a renamed or moved function does not
 // leave the docs pointing at nothing. The pointers are written as `symbol` (`file`),
 // (`symbol`, `file`) or `symbol` in `file`; the symbol's last `::` component must appear in the
-// file as a whole word.
+// file as a whole word. And the tests' own map of the sources: each tests/NAME_test.cpp tests
+// the source NAME (a NAME.cpp, .h or .glsl in a source folder), or its first line says why not.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -69,6 +70,40 @@ TEST(Docs, PointersNameSymbolsInTheirFiles) {
   std::printf("[figures] %zu pointers from docs/ and the README to symbols in files, %d stale\n",
               pointers.size(), stale);
   EXPECT_GT(pointers.size(), 50u);  // the forms still match how the docs write pointers
+}
+
+}  // namespace
+
+namespace {
+
+// The tests' files are named after what they test (docs/testing.md).
+TEST(Docs, EveryTestFileIsNamedAfterItsSourceOrSaysWhyNot) {
+  const fs::path root = RAYWARP_SOURCE_DIR;
+  const std::string suffix = "_test.cpp";
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(root / "tests")) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() <= suffix.size() ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
+      continue;
+    ++files;
+    const std::string stem = name.substr(0, name.size() - suffix.size());
+    bool source = false;
+    for (const auto& folder : fs::directory_iterator(root)) {
+      if (!folder.is_directory() || folder.path().filename() == "tests") continue;
+      for (const char* ext : {".cpp", ".h", ".glsl"})
+        source = source || fs::exists(folder.path() / (stem + ext));
+    }
+    if (source) continue;
+    const std::string text = read_text(entry.path());
+    const std::string first = text.substr(0, text.find('\n'));
+    EXPECT_TRUE(first.rfind("// Named after no one source: ", 0) == 0 ||
+                first.find("not a source") != std::string::npos)
+        << "tests/" << name << " tests no source named " << stem
+        << ": rename it after the source it tests, or begin it with \"// Named after no one "
+           "source: \" and why";
+  }
+  EXPECT_GT(files, 50);
 }
 
 }  // namespace

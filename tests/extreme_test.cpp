@@ -1,3 +1,4 @@
+// Named after no one source: the shipped extreme scenes end to end.
 // The extreme and stiff cases of examples/extreme/: each scene bakes and renders with no NaN or
 // infinity in any texture or image; prints its error against the exact ground truth (the mesh
 // subdivided, split at the box faces and mapped by the exact forward map), its frame time and

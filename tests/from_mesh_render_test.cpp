@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of the from_mesh deformer (docs/from_mesh.md): a deformation authored elsewhere,
 // brought in as a deformed copy of the mesh or as a glTF morph target, baked into a deformation
 // texture and rendered by the GL renderer (OSMesa), against an independent reference, with the

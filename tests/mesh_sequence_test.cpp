@@ -1,3 +1,4 @@
+// Named after no one source: sequences of library/mesh_pairs.h (pairs: from_mesh_test).
 // A from_mesh sequence (library/mesh_pairs.h): a folder of deformed copies in natural name order,
 // or a glTF's morph targets; a fractional frame blends the copies on either side; frames past the
 // last, empty folders and conflicting fields are refused naming the field and what is allowed.

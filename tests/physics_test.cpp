@@ -1,3 +1,4 @@
+// Named after no one source: physics/ as a whole; its sources share these fixtures.
 // The physics core (physics/): the spring law and its Jacobians, the integrators' exact behaviour
 // on a linear spring, their stability and conservation on a tetrahedral bar, local/global against
 // implicit Euler, the tetrahedralisation and the grid model (docs/physics.md).

@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // 16-bit against 32-bit float textures (render.texture_bits): half rounding itself, and what
 // each precision gives in error against the exact ground truth, with its texture memory.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// Named after no one source: the README's pictures end to end.
 // The README's pictures (docs/images/NAME.png, rendered from examples/NAME.json at 400 x 400 with
 // the scene's own camera) re-render within 1/255 per channel: a refactoring that changes what
 // raywarp draws fails here. The PNGs are read back by stb_image, not by raywarp.

@@ -1,3 +1,4 @@
+// Named after no one source: the renderer end to end against the references.
 // Image tests: the GL render (raster pass + ray-cast pass through OSMesa) against
 //  - the exact ground truth (tests/ground_truth_render.h): the mesh subdivided to a quarter voxel,
 //  split at the box faces, the

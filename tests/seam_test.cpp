@@ -1,3 +1,4 @@
+// Named after no one source: a property of every render, across the bake and the renderer.
 // No crack where the deformed part meets the rest of the mesh (tests/seam_check.h), on every
 // shipped example and the scenes of examples/seams (a peel by 120 degrees and by 1 degree), at the
 // defaults; tests/zoo_test.cpp runs the same check on every scene of examples/zoo.

@@ -1,3 +1,4 @@
+// Named after no one source: the shaders/ variants as gl/ assembles and compiles them.
 // Lean shader variants: the ray-cast fragment shader of a box holds only the code of the features
 // the box uses. assemble_shader resolves the RAYWARP_* conditionals itself, so the text handed to
 // the GL compiler of a continuous twist has no cut code, and a box cut's has no deformation

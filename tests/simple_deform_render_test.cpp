@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of Blender's Simple Deform modes taper and stretch (deformers/taper.h,
 // deformers/stretch.h): the GL render (raster pass + ray-cast pass through OSMesa) of
 // examples/bunny_taper.json and examples/bunny_stretch.json against the exact ground truth

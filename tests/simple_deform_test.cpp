@@ -1,3 +1,4 @@
+// Named after no one source: two types (taper, stretch) against one restated algorithm.
 // Numerical experiments on Blender's Simple Deform modes taper and stretch (deformers/taper.h,
 // deformers/stretch.h): the forward map against Blender's algorithm restated independently, round
 // trips of the analytic inverse, the analytic Jacobian against central differences, the identity

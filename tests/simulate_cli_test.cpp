@@ -1,3 +1,4 @@
+// Named after no one source: it runs cli/simulate.h's command through the binary.
 // `raywarp simulate` (cli/simulate.h): the run's states rendered as a sequence, through the real
 // binary; its refusals exit with status 2 and name the scene.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// Named after no one source: an image test across the bake, the renderer and the references.
 // Image tests of the simulation deformer (docs/simulation.md): the GL render (raster pass and
 // ray-cast pass through OSMesa) against the exact ground truth of the same F (the mesh subdivided
 // to a quarter voxel, the part in the box mapped by F, rasterised on the CPU), with the image

@@ -1,3 +1,4 @@
+// Named after no one source: two formats (library/ktx2.h, library/dds.h), one suite.
 // The KTX2 and DDS writers and readers of 3D float textures (library/ktx2.h, library/dds.h):
 // round trips through our readers, header fields at their documented offsets, malformed files
 // refused with an Error, and the files read back by readers that are not ours: ktx-parse (npm,

@@ -1,3 +1,4 @@
+// Named after no one source: the viewer/ folder in a browser, with its assets from cli/.
 // The browser viewer (viewer/) and what it reads (cli/viewer_assets.h): a small library folder is
 // built (the exported KTX2 textures, the mesh binary, the shader bundle, index.json, the viewer),
 // every shader of the bundle must pass glslangValidator (GLSL 4.50 and ES 3.00), and headless

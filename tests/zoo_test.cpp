@@ -1,3 +1,4 @@
+// Named after no one source: meshes nobody tuned for, end to end.
 // Image tests on meshes nobody tuned for (examples/zoo, written by scripts/make_zoo.py): a twist,
 // a bend, a box cut and an incision on each of seven public meshes (closed and open, thin legs,
 // fingers, ears, horns, a range scan of 222K triangles), at raywarp's default settings, each at

@@ -1,5 +1,7 @@
-// The bake cache: entries read back exactly, a changed key or a damaged file is a miss, and a
-// second preparation of a scene (or one with a new camera) bakes nothing.
+// The bake cache (library/bake_cache.h): entries read back exactly, a changed key or a damaged file
+// is a miss, and a second preparation of a scene (or one with a new camera) bakes nothing.
+#include "library/bake_cache.h"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -8,7 +10,6 @@
 #include <fstream>
 #include <sstream>
 
-#include "library/bake_cache.h"
 #include "library/prepare.h"
 #include "library/scene.h"
 #include "tests/sanitizer.h"

@@ -2,6 +2,8 @@
 // file listed exists, the three.js module and the Unreal script parse, the Unity scripts compile
 // against stand-ins of the UnityEngine/UnityEditor types (where mcs is installed), the numbers in
 // the bundles are the sidecar's, and an export without atlases names the format to add.
+#include "cli/engine_bundles.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -12,7 +14,6 @@
 #include <string>
 
 #include "base/error.h"
-#include "cli/engine_bundles.h"
 #include "cli/export.h"
 #include "library/export.h"
 #include "library/prepare.h"
