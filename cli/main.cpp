@@ -16,9 +16,6 @@
 #include "cli/export.h"
 #include "cli/library.h"
 #include "cli/simulate.h"
-#include "cli/stability.h"
-#include "cli/stiffness.h"
-#include "cli/study.h"
 #include "deformers/registry.h"
 #include "editor/editor.h"
 #include "gl/context.h"
@@ -27,6 +24,9 @@
 #include "library/image.h"
 #include "library/prepare.h"
 #include "library/scene.h"
+#include "studies/stability.h"
+#include "studies/stiffness.h"
+#include "studies/study.h"
 
 namespace fs = std::filesystem;
 using namespace raywarp;

@@ -2,7 +2,7 @@
 // parser (xmllint, else python3's xml.etree); points read back from their circles and mapped
 // back through the log scales the tick labels state; the front's subset; what is left out and
 // the note saying so; decade ticks; empty input; escaping; colours by name; bad arguments.
-#include "cli/chart.h"
+#include "studies/chart.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -2,7 +2,7 @@
 // finite, a twist of 0 degrees matches the exact ground truth, a folding bend is flagged by
 // raywarp's own warning, a scene that cannot be loaded is recorded as rejected rather than
 // stopping the study, and the report holds one row per case.
-#include "cli/stability.h"
+#include "studies/stability.h"
 
 #include <gtest/gtest.h>
 

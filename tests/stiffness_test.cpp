@@ -1,6 +1,6 @@
-// `raywarp study --stiffness --quick` (cli/stiffness.h): the files it writes, their columns and
+// `raywarp study --stiffness --quick` (studies/stiffness.h): the files it writes, their columns and
 // figures, and its refusal of bad options.
-#include "cli/stiffness.h"
+#include "studies/stiffness.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "cli/stiffness_images.h"
+#include "studies/stiffness_images.h"
 
 namespace fs = std::filesystem;
 

@@ -1,7 +1,7 @@
 // `raywarp study` on a small scale: the quick sweep of the shipped bunny twist at 64², its three
 // files, the object-space peer's subdivision, the Pareto front, the chart drawn again from a
 // study.csv, and the errors on bad input.
-#include "cli/study.h"
+#include "studies/study.h"
 
 #include <gtest/gtest.h>
 

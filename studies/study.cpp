@@ -1,4 +1,4 @@
-#include "cli/study.h"
+#include "studies/study.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,13 +14,13 @@
 
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/chart.h"
 #include "deformers/box_cut.h"
 #include "gl/frame_timing.h"
 #include "gl/renderer.h"
 #include "library/image.h"
 #include "library/prepare.h"
 #include "library/scene.h"
+#include "studies/chart.h"
 #include "verify/ground_truth.h"
 #include "verify/reference.h"
 

@@ -4,7 +4,7 @@
 // of the uniformly subdivided mesh, rasterised: what a vertex shader does), each rendered,
 // timed (median of frames after a warm-up) and measured against the scene's exact ground truth.
 // Writes DIR/study.csv (one row per run), DIR/pareto.svg (error against ms per scene, one colour
-// per method, the Pareto front marked; cli/chart.h) and DIR/report.md (the tables, the
+// per method, the Pareto front marked; studies/chart.h) and DIR/report.md (the tables, the
 // recommended setting per scene, the speed and memory goals at 512², how the numbers were taken,
 // the machine).
 #pragma once

@@ -1,4 +1,4 @@
-#include "cli/stiffness.h"
+#include "studies/stiffness.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,13 +16,13 @@
 
 #include "base/atomic_file.h"
 #include "base/error.h"
-#include "cli/chart.h"
-#include "cli/stiffness_images.h"
 #include "library/mesh.h"
 #include "library/winding.h"
 #include "physics/integrators.h"
 #include "physics/models.h"
 #include "physics/spectrum.h"
+#include "studies/chart.h"
+#include "studies/stiffness_images.h"
 
 namespace raywarp {
 

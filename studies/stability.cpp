@@ -1,4 +1,4 @@
-#include "cli/stability.h"
+#include "studies/stability.h"
 
 #include <algorithm>
 #include <cctype>

@@ -25,7 +25,7 @@
 // - the seed papers' stability claims replayed on the bar;
 // - images: examples/bunny_simulation.json at ks 1e3 to 1e6, its final state rendered in image
 //   space (the deformation texture) and in object space (the mappings), both against the exact
-//   ground truth of the state (cli/stiffness_images.h; needs a current OpenGL context).
+//   ground truth of the state (studies/stiffness_images.h; needs a current OpenGL context).
 // `quick` runs a reduced set (the bar, two stiffnesses, short runs, one small image run) in a few
 // seconds, for tests.
 #pragma once

@@ -1,4 +1,4 @@
-#include "cli/chart.h"
+#include "studies/chart.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "cli/stiffness_images.h"
+#include "studies/stiffness_images.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +12,6 @@
 #include "base/atomic_file.h"
 #include "base/error.h"
 #include "base/format.h"
-#include "cli/chart.h"
 #include "gl/frame_timing.h"
 #include "gl/renderer.h"
 #include "gl/surface_mapping_render.h"
@@ -22,6 +21,7 @@
 #include "library/scene.h"
 #include "library/surface_mapping.h"
 #include "library/tet_body.h"
+#include "studies/chart.h"
 #include "verify/ground_truth.h"
 
 namespace fs = std::filesystem;
