@@ -315,6 +315,15 @@ std::string target_hash(const std::string& file) {
 
 }  // namespace
 
+namespace {
+
+// The automatic cylindrical layouts' floor (angle, radius, height texels).
+Eigen::Vector3i cylindrical_floor() {
+  return {kAutoCylindricalFloor[0], kAutoCylindricalFloor[1], kAutoCylindricalFloor[2]};
+}
+
+}  // namespace
+
 // One box's bake: the stages in order, each a member function that reads what the stages
 // before it left (docs/architecture.md, "The bake pipeline"). Each stage goes through cached():
 // the session's memory, then the disk cache, then the bake.
@@ -816,11 +825,9 @@ void BoxBake::deformation() {
         const Deformer& d = *out_.deformer;
         const Eigen::Vector3d& h = spec_.box.half_extents;
         if (cylindrical_d_) {
-          const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
-                                      kAutoCylindricalFloor[2]);
           if (automatic_) {
             AutoDeformation a = bake_cylindrical_deformation_auto(
-                d, h, mapping.axis, domain_, target_, budget, floor, interrupter_);
+                d, h, mapping.axis, domain_, target_, budget, cylindrical_floor(), interrupter_);
             r.texture = std::move(a.texture);
             r.texture_error = a.error;
             r.choice = a.choice;
@@ -910,11 +917,10 @@ void BoxBake::alpha() {
       [&] {
         AlphaRecord r;
         if (mapping.cylindrical) {
-          const Eigen::Vector3i floor(kAutoCylindricalFloor[0], kAutoCylindricalFloor[1],
-                                      kAutoCylindricalFloor[2]);
           if (auto_alpha) {
-            AutoAlpha a = bake_cylindrical_alpha_auto(deformer, mapping.axis, domain_, target_,
-                                                      band, alpha_budget, floor, interrupter_);
+            AutoAlpha a =
+                bake_cylindrical_alpha_auto(deformer, mapping.axis, domain_, target_, band,
+                                            alpha_budget, cylindrical_floor(), interrupter_);
             r.map = std::move(a.map);
             r.error = a.error;
             r.choice = a.choice;
